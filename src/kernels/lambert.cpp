@@ -1,0 +1,100 @@
+#include "kernels/lambert.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace photometria {
+namespace {
+
+constexpr double kEps = std::numeric_limits<double>::epsilon();
+
+// Small-buffer storage: patches have 3–4 vertices; clipping and boundary vertices can at most
+// double that. Larger query polygons fall back to the heap.
+struct Scratch {
+  Polygon work, clipped;
+};
+thread_local Scratch scratch;
+
+// Σ_i Θ_i N·(a_i × a_{i+1}) / |a_i × a_{i+1}|   (seed 000 eq. 1, seed 002 eq. 3)
+double lambert_sum(const Polygon& a, const Vec3& N) {
+  double sum = 0.0;
+  const size_t n = a.size();
+  for (size_t i = 0; i < n; ++i) {
+    const Vec3& ai = a[i];
+    const Vec3& aj = a[(i + 1) % n];
+    const Vec3 edge_normal = ai.cross(aj - ai);  // = a_i × a_{i+1}, accurate near the edge's line
+    const double len = edge_normal.norm();
+    if (len == 0.0) continue;  // zero-length edge or receiver on its line: no area swept
+    const double theta = std::atan2(len, ai.dot(aj));
+    sum += theta * N.dot(edge_normal) / len;
+  }
+  return sum;
+}
+
+}  // namespace
+
+double lambert_form_factor(const Receiver& receiver, const Vec3* v, int n) {
+  if (n < 3) return 0.0;
+  const Vec3& p = receiver.point;
+  const Vec3& N = receiver.normal;
+  Polygon& a = scratch.work;
+  a.resize(n);
+  double magnitude = p.lpNorm<Eigen::Infinity>();
+  for (int i = 0; i < n; ++i) {
+    a[i] = v[i] - p;
+    magnitude = std::max(magnitude, v[i].lpNorm<Eigen::Infinity>());
+  }
+  const Vec3 newell = newell_vector(a);
+  const double newell_len = newell.norm();
+  if (newell_len == 0.0 || magnitude == 0.0) return 0.0;  // degenerate polygon
+  const Vec3 front = newell / newell_len;
+  // Signed distance of p in front of the polygon's plane (mean over vertices for robustness).
+  Vec3 mean = Vec3::Zero();
+  for (const Vec3& ai : a) mean += ai;
+  const double height = -front.dot(mean) / n;
+  // What rounding of the inputs can hide: a few ulps of the coordinates' magnitude.
+  const double tol = 16.0 * kEps * magnitude;
+  if (height < -tol) return 0.0;  // seen from the back: one-sided
+
+  if (height <= tol) {
+    // p lies in the polygon's plane: zero solid angle unless p is on the boundary, where the
+    // value is the limit as p is approached from inside the receiver's surface.
+    Polygon boundary;
+    boundary.reserve(2 * n);
+    bool on_boundary = false;
+    for (int i = 0; i < n; ++i) {
+      const Vec3& ai = a[i];
+      const Vec3& aj = a[(i + 1) % n];
+      const bool at_vertex = ai.norm() <= tol;
+      if (at_vertex) {
+        on_boundary = true;
+        boundary.push_back(Vec3::Zero());
+        continue;
+      }
+      boundary.push_back(ai);
+      const Vec3 e = aj - ai;
+      if (aj.norm() > tol && ai.cross(e).norm() <= tol * e.norm() && ai.dot(aj) < 0) {
+        on_boundary = true;  // p strictly inside edge i: split the edge at p
+        boundary.push_back(Vec3::Zero());
+      }
+    }
+    if (!on_boundary) return 0.0;
+    Vec3 u = receiver.approach.isZero() ? Vec3(front - front.dot(N) * N) : receiver.approach;
+    u -= u.dot(N) * N;  // keep the approach in the receiver plane
+    const double ulen = u.norm();
+    if (ulen <= 1e-12 || front.dot(u) <= 0.0) return 0.0;  // polygon in the receiver plane, or approached from behind
+    u /= ulen;
+    // Seen from p + εu, a vertex at p lies in direction -u (only directions matter below).
+    for (Vec3& b : boundary)
+      if (b.isZero()) b = -u;
+    a.swap(boundary);
+  }
+
+  clip_to_halfspace(a.data(), static_cast<int>(a.size()), N, scratch.clipped);
+  if (scratch.clipped.size() < 3) return 0.0;
+  const double f = -lambert_sum(scratch.clipped, N) / (2.0 * M_PI);
+  return std::clamp(f, 0.0, 1.0);
+}
+
+}  // namespace photometria

@@ -1,0 +1,192 @@
+#include "patching/patching.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numeric>
+
+namespace photometria {
+
+Polygon PatchMesh::polygon(int i) const {
+  const Patch& p = patches[i];
+  Polygon poly(p.corner_count);
+  for (int k = 0; k < p.corner_count; ++k) poly[k] = points[p.corners[k]];
+  return poly;
+}
+
+void PatchMesh::polygon(int i, Vec3 out[4]) const {
+  const Patch& p = patches[i];
+  for (int k = 0; k < p.corner_count; ++k) out[k] = points[p.corners[k]];
+}
+
+namespace {
+
+struct UnionFind {
+  std::vector<int> parent;
+  explicit UnionFind(int n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
+  int find(int x) { return parent[x] == x ? x : parent[x] = find(parent[x]); }
+  void unite(int a, int b) { parent[find(a)] = find(b); }
+};
+
+// A mesh edge, stored once with its vertices in increasing order, with its interior points.
+struct Edge {
+  int lo = 0, hi = 0;
+  int segments = 1;
+  std::vector<int> interior;  // point indices from lo towards hi
+};
+
+class Subdivider {
+ public:
+  Subdivider(const Scene& scene, const PatchingOptions& options) : scene_(scene), options_(options) {}
+
+  PatchMesh run() {
+    collect_edges();
+    choose_segment_counts();
+    mesh_.points = scene_.vertices;  // original vertices keep their indices
+    create_edge_points();
+    for (int f = 0; f < static_cast<int>(scene_.faces.size()); ++f) {
+      if (scene_.faces[f].vertices.size() == 4) split_quad(f); else split_triangle(f);
+    }
+    return std::move(mesh_);
+  }
+
+ private:
+  const Scene& scene_;
+  PatchingOptions options_;
+  PatchMesh mesh_;
+  std::vector<Edge> edges_;
+  std::map<std::pair<int, int>, int> edge_index_;
+  std::vector<std::vector<int>> face_edges_;
+
+  int edge_id(int a, int b) {
+    const auto key = std::minmax(a, b);
+    auto [it, inserted] = edge_index_.try_emplace({key.first, key.second}, static_cast<int>(edges_.size()));
+    if (inserted) edges_.push_back({key.first, key.second, 1, {}});
+    return it->second;
+  }
+
+  void collect_edges() {
+    face_edges_.resize(scene_.faces.size());
+    for (size_t f = 0; f < scene_.faces.size(); ++f) {
+      const auto& v = scene_.faces[f].vertices;
+      for (size_t k = 0; k < v.size(); ++k) face_edges_[f].push_back(edge_id(v[k], v[(k + 1) % v.size()]));
+    }
+  }
+
+  int needed_segments(double length) const {
+    if (options_.max_edge <= 0) return 1;
+    return std::max(1, static_cast<int>(std::ceil(length / options_.max_edge - 1e-9)));
+  }
+
+  void choose_segment_counts() {
+    UnionFind tied(static_cast<int>(edges_.size()));
+    std::vector<int> need(edges_.size(), 1);
+    for (size_t e = 0; e < edges_.size(); ++e)
+      need[e] = needed_segments((scene_.vertices[edges_[e].hi] - scene_.vertices[edges_[e].lo]).norm());
+    for (size_t f = 0; f < scene_.faces.size(); ++f) {
+      const auto& fe = face_edges_[f];
+      if (fe.size() == 4) { tied.unite(fe[0], fe[2]); tied.unite(fe[1], fe[3]); }
+      else { tied.unite(fe[0], fe[1]); tied.unite(fe[1], fe[2]); }
+      if (options_.max_area > 0) {
+        // nu·nv >= n² segments with n = ceil(sqrt(area / max_area)) keeps every patch small enough.
+        const double area = polygon_area(scene_.face_polygon(static_cast<int>(f)));
+        const int n = std::max(1, static_cast<int>(std::ceil(std::sqrt(area / options_.max_area) - 1e-9)));
+        for (int e : fe) need[e] = std::max(need[e], n);
+      }
+    }
+    std::vector<int> group_need(edges_.size(), 1);
+    for (size_t e = 0; e < edges_.size(); ++e) {
+      int& g = group_need[tied.find(static_cast<int>(e))];
+      g = std::max(g, need[e]);
+    }
+    for (size_t e = 0; e < edges_.size(); ++e) edges_[e].segments = group_need[tied.find(static_cast<int>(e))];
+  }
+
+  void create_edge_points() {
+    for (Edge& e : edges_) {
+      const Vec3 a = scene_.vertices[e.lo], b = scene_.vertices[e.hi];
+      for (int k = 1; k < e.segments; ++k) {
+        e.interior.push_back(static_cast<int>(mesh_.points.size()));
+        mesh_.points.push_back(a + (b - a) * (double(k) / e.segments));
+      }
+    }
+  }
+
+  // Point k (0..segments) along the face edge from vertex `from` to vertex `to`.
+  int edge_point(int from, int to, int k) {
+    const Edge& e = edges_[edge_index_.at({std::min(from, to), std::max(from, to)})];
+    if (k == 0) return from;
+    if (k == e.segments) return to;
+    return from == e.lo ? e.interior[k - 1] : e.interior[e.segments - k - 1];
+  }
+
+  int segments(int a, int b) { return edges_[edge_index_.at({std::min(a, b), std::max(a, b)})].segments; }
+
+  int add_point(const Vec3& x) {
+    mesh_.points.push_back(x);
+    return static_cast<int>(mesh_.points.size()) - 1;
+  }
+
+  void add_patch(int face, std::initializer_list<int> corners) {
+    Patch p;
+    p.face = face;
+    p.corner_count = static_cast<int>(corners.size());
+    std::copy(corners.begin(), corners.end(), p.corners.begin());
+    const Polygon poly = [&] { Polygon q; for (int c : corners) q.push_back(mesh_.points[c]); return q; }();
+    p.normal = polygon_normal(scene_.face_polygon(face));
+    p.area = polygon_area(poly);
+    p.centroid = polygon_centroid(poly);
+    mesh_.patches.push_back(p);
+  }
+
+  void split_quad(int f) {
+    const auto& c = scene_.faces[f].vertices;
+    const int nu = segments(c[0], c[1]), nv = segments(c[1], c[2]);
+    const Polygon q = scene_.face_polygon(f);
+    // Grid point (i, j): on the boundary from the shared edge points, inside from the bilinear map.
+    std::vector<int> grid((nu + 1) * (nv + 1));
+    auto at = [&](int i, int j) -> int& { return grid[j * (nu + 1) + i]; };
+    for (int j = 0; j <= nv; ++j)
+      for (int i = 0; i <= nu; ++i) {
+        if (j == 0) at(i, j) = edge_point(c[0], c[1], i);
+        else if (i == nu) at(i, j) = edge_point(c[1], c[2], j);
+        else if (j == nv) at(i, j) = edge_point(c[2], c[3], nu - i);
+        else if (i == 0) at(i, j) = edge_point(c[3], c[0], nv - j);
+        else {
+          const double s = double(i) / nu, t = double(j) / nv;
+          at(i, j) = add_point((1 - s) * (1 - t) * q[0] + s * (1 - t) * q[1] + s * t * q[2] + (1 - s) * t * q[3]);
+        }
+      }
+    for (int j = 0; j < nv; ++j)
+      for (int i = 0; i < nu; ++i) add_patch(f, {at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)});
+  }
+
+  void split_triangle(int f) {
+    const auto& c = scene_.faces[f].vertices;
+    const int n = segments(c[0], c[1]);
+    const Polygon t = scene_.face_polygon(f);
+    // Barycentric grid (i, j), i + j <= n: x = c0 + i/n (c1 - c0) + j/n (c2 - c0).
+    std::vector<int> grid((n + 1) * (n + 1), -1);
+    auto at = [&](int i, int j) -> int& { return grid[j * (n + 1) + i]; };
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i + j <= n; ++i) {
+        if (j == 0) at(i, j) = edge_point(c[0], c[1], i);
+        else if (i + j == n) at(i, j) = edge_point(c[1], c[2], j);
+        else if (i == 0) at(i, j) = edge_point(c[2], c[0], n - j);
+        else at(i, j) = add_point(t[0] + (t[1] - t[0]) * (double(i) / n) + (t[2] - t[0]) * (double(j) / n));
+      }
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i + j < n; ++i) {
+        add_patch(f, {at(i, j), at(i + 1, j), at(i, j + 1)});
+        if (i + j + 1 < n) add_patch(f, {at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)});
+      }
+  }
+};
+
+}  // namespace
+
+PatchMesh subdivide(const Scene& scene, const PatchingOptions& options) {
+  return Subdivider(scene, options).run();
+}
+
+}  // namespace photometria

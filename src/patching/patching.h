@@ -1,0 +1,42 @@
+// Patching: split every scene face into patches small enough for the requested accuracy.
+//
+// Quads become nu × nv grids (bilinear), triangles n² similar triangles (barycentric grid).
+// The split is conforming: an edge shared by two faces is cut into the same number of segments
+// on both sides, so neighbouring patches share vertices. To keep that true, the segment counts
+// of opposite quad edges and of all three triangle edges are tied together (union–find over the
+// mesh edges) and each tied set takes the largest count any member needs.
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include "scene/scene.h"
+
+namespace photometria {
+
+struct PatchingOptions {
+  double max_edge = 0.0;  // metres; every patch edge is at most this long (0 = no limit)
+  double max_area = 0.0;  // m²; every patch is at most this large (0 = no limit)
+};
+
+struct Patch {
+  std::array<int, 4> corners{};  // indices into PatchMesh::points, counter-clockwise from the front
+  int corner_count = 0;          // 3 or 4
+  int face = 0;                  // index into Scene::faces
+  Vec3 normal = Vec3::Zero();    // unit front normal (the face's)
+  Vec3 centroid = Vec3::Zero();  // area centroid, metres
+  double area = 0.0;             // m²
+};
+
+struct PatchMesh {
+  std::vector<Vec3> points;    // shared patch vertices
+  std::vector<Patch> patches;
+
+  int size() const { return static_cast<int>(patches.size()); }
+  Polygon polygon(int patch) const;
+  void polygon(int patch, Vec3 out[4]) const;
+};
+
+PatchMesh subdivide(const Scene& scene, const PatchingOptions& options);
+
+}  // namespace photometria

@@ -1,0 +1,211 @@
+#include "pipeline/solve.h"
+
+#include <omp.h>
+#include <sys/resource.h>
+
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <sstream>
+
+#include "kernels/lambert.h"
+#include "util/error.h"
+
+namespace photometria {
+
+double peak_memory_bytes() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return double(usage.ru_maxrss) * 1024.0;  // Linux reports kilobytes
+}
+
+namespace {
+
+class StageTimer {
+ public:
+  explicit StageTimer(SolveSummary& s) : summary_(s), start_(std::chrono::steady_clock::now()) {}
+  void lap(const std::string& stage) {
+    const auto now = std::chrono::steady_clock::now();
+    summary_.stage_seconds.emplace_back(stage, std::chrono::duration<double>(now - start_).count());
+    start_ = now;
+  }
+
+ private:
+  SolveSummary& summary_;
+  std::chrono::steady_clock::time_point start_;
+};
+
+void fill_materials(const Scene& scene, SolveResult& r) {
+  const int n = r.mesh.size();
+  r.emission.resize(n, 3);
+  r.reflectance.resize(n, 3);
+  for (int i = 0; i < n; ++i) {
+    const Material& m = scene.materials[scene.faces[r.mesh.patches[i].face].material];
+    r.emission.row(i) = m.emission.matrix().transpose();
+    r.reflectance.row(i) = m.reflectance.matrix().transpose();
+  }
+}
+
+// Output points: one per (patch vertex, material, normal); patches sharing all three share it.
+void split_output_points(const Scene& scene, SolveResult& r) {
+  const PatchMesh& mesh = r.mesh;
+  std::vector<std::vector<int>> at_vertex(mesh.points.size());
+  std::vector<Vec3> approach_sum;
+  r.cells.assign(mesh.size(), {});
+  for (int i = 0; i < mesh.size(); ++i) {
+    const Patch& p = mesh.patches[i];
+    const int material = scene.faces[p.face].material;
+    for (int k = 0; k < p.corner_count; ++k) {
+      const int v = p.corners[k];
+      int found = -1;
+      for (int o : at_vertex[v])
+        if (r.points[o].material == material && r.points[o].normal.dot(p.normal) > 1.0 - 1e-9) { found = o; break; }
+      if (found < 0) {
+        found = static_cast<int>(r.points.size());
+        r.points.push_back({mesh.points[v], p.normal, Vec3::Zero(), material});
+        approach_sum.push_back(Vec3::Zero());
+        at_vertex[v].push_back(found);
+      }
+      approach_sum[found] += p.centroid - mesh.points[v];
+      r.cells[i].push_back(found);
+    }
+  }
+  for (size_t o = 0; o < r.points.size(); ++o) {
+    Vec3 u = approach_sum[o] - approach_sum[o].dot(r.points[o].normal) * r.points[o].normal;
+    r.points[o].approach = u.norm() > 0 ? Vec3(u.normalized()) : Vec3::Zero();
+  }
+}
+
+// H(x) = Σ_j F(dA_x -> P_j) V(x, P_j) B_j at every output point (Baum et al. 1989).
+void gather_at_points(const Scene& scene, const RayVisibility* vis, const SolveOptions& opt, SolveResult& r) {
+  const PatchMesh& mesh = r.mesh;
+  const int np = static_cast<int>(r.points.size());
+  const double tol = plane_tolerance(mesh);
+  r.point_irradiance = ChannelMatrix::Zero(np, 3);
+  r.point_radiosity = ChannelMatrix::Zero(np, 3);
+  long long evaluated = 0, rays = 0;
+#pragma omp parallel for schedule(dynamic, 16) reduction(+ : evaluated, rays)
+  for (int o = 0; o < np; ++o) {
+    const OutputPoint& x = r.points[o];
+    Eigen::RowVector3d h = Eigen::RowVector3d::Zero();
+    Vec3 src[4];
+    for (int j = 0; j < mesh.size(); ++j) {
+      const Patch& pj = mesh.patches[j];
+      double above = -1.0;
+      for (int k = 0; k < pj.corner_count; ++k) above = std::max(above, x.normal.dot(mesh.points[pj.corners[k]] - x.position));
+      if (above <= tol || pj.normal.dot(x.position - pj.centroid) < -tol) continue;
+      mesh.polygon(j, src);
+      double f = lambert_form_factor(Receiver{x.position, x.normal, x.approach}, src, pj.corner_count);
+      ++evaluated;
+      if (f > 0.0 && vis) {
+        // Start the rays just inside the point's own surface so they leave corners cleanly.
+        const Vec3 start = x.position + 10 * vis->surface_offset() * x.approach;
+        f *= vis->point_to_patch(start, x.normal, src, pj.corner_count, pj.normal, opt.rays,
+                                 pair_stream(opt.seed ^ 0x5eedULL, uint64_t(o), uint64_t(j)));
+        rays += opt.rays;
+      }
+      h += f * r.radiosity.row(j);
+    }
+    const Material& m = scene.materials[x.material];
+    r.point_irradiance.row(o) = h;
+    r.point_radiosity.row(o) = m.emission.matrix().transpose() + m.reflectance.matrix().transpose().cwiseProduct(h);
+  }
+  r.summary.vertex_pairs_evaluated = evaluated;
+  r.summary.vertex_rays_cast = rays;
+}
+
+EnergyBalance energy_balance(const FormFactorMatrix& F, const SolveResult& r) {
+  EnergyBalance e;
+  const Eigen::VectorXd row_sums = F.rowwise().sum();
+  for (int i = 0; i < r.mesh.size(); ++i) {
+    const double a = r.mesh.patches[i].area;
+    for (int c = 0; c < 3; ++c) {
+      e.emitted[c] += a * r.emission(i, c);
+      e.absorbed[c] += a * (1.0 - r.reflectance(i, c)) * r.irradiance(i, c);
+      e.escaped[c] += a * r.radiosity(i, c) * std::max(0.0, 1.0 - row_sums[i]);
+    }
+  }
+  for (int c = 0; c < 3; ++c)
+    if (e.emitted[c] > 0)
+      e.relative_imbalance = std::max(e.relative_imbalance, std::abs(e.emitted[c] - e.absorbed[c] - e.escaped[c]) / e.emitted[c]);
+  return e;
+}
+
+}  // namespace
+
+SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
+  if (opt.threads > 0) omp_set_num_threads(opt.threads);
+  SolveResult r;
+  SolveSummary& s = r.summary;
+  s.threads = omp_get_max_threads();
+  StageTimer timer(s);
+  auto progress = [&](const std::string& stage) {
+    return opt.progress ? std::function<void(double)>([&, stage](double f) { opt.progress(stage, f); })
+                        : std::function<void(double)>();
+  };
+
+  bool emits = false;
+  for (const Face& f : scene.faces) emits = emits || (scene.materials[f.material].emission > 0).any();
+  if (!emits) throw_bad_input(scene.source + ": nothing to solve: no face emits light (set Ke in the .mtl or --emission)");
+
+  r.mesh = subdivide(scene, opt.patching);
+  s.faces = static_cast<int>(scene.faces.size());
+  s.patches = r.mesh.size();
+  s.min_patch_area = r.mesh.size() ? r.mesh.patches[0].area : 0.0;
+  for (const Patch& p : r.mesh.patches) {
+    s.min_patch_area = std::min(s.min_patch_area, p.area);
+    s.max_patch_area = std::max(s.max_patch_area, p.area);
+    s.total_area += p.area;
+  }
+  s.pairs_total = (long long)s.patches * (s.patches - 1);
+  fill_materials(scene, r);
+  timer.lap("patching");
+
+  std::unique_ptr<RayVisibility> vis;
+  std::string reason;
+  switch (opt.visibility) {
+    case VisibilityMode::None: s.visibility_mode = "none"; s.visibility_reason = "requested (--visibility none)"; break;
+    case VisibilityMode::Rays: s.visibility_mode = "rays"; s.visibility_reason = "requested (--visibility rays)"; break;
+    case VisibilityMode::Auto:
+      if (scene_needs_no_visibility(scene, &reason)) { s.visibility_mode = "none"; s.visibility_reason = "auto: " + reason; }
+      else { s.visibility_mode = "rays"; s.visibility_reason = "auto: " + reason; }
+  }
+  if (s.visibility_mode == "rays") vis = std::make_unique<RayVisibility>(scene);
+  s.rays = vis ? opt.rays : 0;
+  timer.lap("visibility_setup");
+
+  FillOptions fill;
+  fill.quadrature = opt.quadrature;
+  fill.visibility = vis.get();
+  fill.rays = opt.rays;
+  fill.seed = opt.seed;
+  fill.progress = progress("form factors");
+  s.quadrature = opt.quadrature;
+  s.matrix_storage = "dense double";
+  s.matrix_bytes = double(s.patches) * s.patches * sizeof(double);
+  const FormFactorMatrix F = fill_form_factors(r.mesh, fill, s.fill);
+  timer.lap("form_factors");
+
+  bool grey = true;
+  for (const Material& m : scene.materials) grey = grey && m.is_grey();
+  const ChannelMatrix direct = ChannelMatrix::Zero(s.patches, 3);  // no analytic lights yet
+  s.tolerance = opt.solver.tolerance;
+  s.solver = solve_radiosity(F, r.emission, r.reflectance, direct, grey, opt.solver, r.radiosity);
+  if (!s.solver.converged) {
+    std::ostringstream m;
+    m << scene.source << ": the solver did not converge in " << s.solver.iterations << " sweeps (relative residual "
+      << s.solver.residual << " > tolerance " << opt.solver.tolerance << "); raise --max-iterations";
+    throw Error(ErrorKind::NotConverged, m.str());
+  }
+  r.irradiance = F * r.radiosity + direct;
+  s.energy = energy_balance(F, r);
+  timer.lap("solve");
+
+  split_output_points(scene, r);
+  s.output_points = static_cast<int>(r.points.size());
+  gather_at_points(scene, vis.get(), opt, r);
+  timer.lap("vertex_gather");
+  return r;
+}
+
+}  // namespace photometria

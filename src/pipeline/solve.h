@@ -1,0 +1,88 @@
+// The main job: scene -> patches -> form factors -> radiosity -> per-vertex results.
+//
+// solve_scene() runs every stage, skips what the scene does not need (visibility in a convex
+// enclosure, back-facing pairs, two colour channels when all materials are grey) and records
+// what it did in SolveSummary. Per-vertex values follow Baum, Rushmeier & Winget 1989: the
+// irradiance is gathered at the vertex itself from the converged patch radiosities,
+//   H(x) = Σ_j F(dA_x -> P_j) V(x, P_j) B_j,   B(x) = E + ρ H(x),
+// not averaged from neighbouring cells. Output points are split where faces meet at a crease or
+// a material change, so every point has one normal and one material.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "formfactors/formfactors.h"
+#include "patching/patching.h"
+#include "scene/scene.h"
+#include "solver/gauss_seidel.h"
+
+namespace photometria {
+
+enum class VisibilityMode { Auto, None, Rays };
+
+struct SolveOptions {
+  PatchingOptions patching;                  // patch size limits
+  int quadrature = 1;                        // receiver rule order, 1 = centroid
+  VisibilityMode visibility = VisibilityMode::Auto;
+  int rays = 16;                             // segments per pair (and per vertex–patch) in ray mode
+  uint64_t seed = 1;                         // ray sampling seed
+  SolverOptions solver;
+  int threads = 0;                           // 0 = all cores
+  std::function<void(const std::string& stage, double fraction)> progress;  // optional
+};
+
+struct EnergyBalance {
+  Rgb emitted = Rgb::Zero();   // Σ A_i E_i, W
+  Rgb absorbed = Rgb::Zero();  // Σ A_i (1 − ρ_i) H_i, W
+  Rgb escaped = Rgb::Zero();   // Σ A_i B_i (1 − Σ_j F_ij): leaves through openings, W
+  double relative_imbalance = 0.0;  // max over channels |emitted − absorbed − escaped| / emitted
+};
+
+struct SolveSummary {
+  int faces = 0;
+  int patches = 0;
+  double min_patch_area = 0.0, max_patch_area = 0.0, total_area = 0.0;
+  long long pairs_total = 0;  // N (N − 1)
+  FillStats fill;
+  std::string visibility_mode;    // "none" or "rays"
+  std::string visibility_reason;  // why that mode was chosen
+  int quadrature = 1;
+  int rays = 0;
+  SolverReport solver;
+  double tolerance = 0.0;
+  int output_points = 0;
+  long long vertex_pairs_evaluated = 0;
+  long long vertex_rays_cast = 0;
+  std::string matrix_storage;     // e.g. "dense double"
+  double matrix_bytes = 0.0;
+  int threads = 1;
+  std::vector<std::pair<std::string, double>> stage_seconds;
+  EnergyBalance energy;
+};
+
+struct OutputPoint {
+  Vec3 position;
+  Vec3 normal;
+  Vec3 approach;  // unit direction in the tangent plane towards the point's own patches
+  int material = 0;
+};
+
+struct SolveResult {
+  PatchMesh mesh;
+  ChannelMatrix emission, reflectance, irradiance, radiosity;  // per patch, N × 3
+  std::vector<OutputPoint> points;                             // split output points
+  std::vector<std::vector<int>> cells;                         // per patch: indices into points
+  ChannelMatrix point_irradiance, point_radiosity;             // per output point, P × 3
+  SolveSummary summary;
+};
+
+// Throws photometria::Error: BadInput when there is nothing to solve (no emitter) or a material
+// is out of range, NotConverged when the solver hits its iteration cap.
+SolveResult solve_scene(const Scene& scene, const SolveOptions& options);
+
+// Peak resident memory of this process so far, bytes.
+double peak_memory_bytes();
+
+}  // namespace photometria

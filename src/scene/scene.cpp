@@ -1,0 +1,50 @@
+// load_scene: pick the reader by extension, then clean the geometry and check the materials.
+#include "scene/scene.h"
+
+#include "scene/loaders.h"
+#include "util/error.h"
+
+namespace photometria {
+
+using namespace scene_detail;
+
+Polygon Scene::face_polygon(int f) const {
+  Polygon p;
+  for (int v : faces[static_cast<size_t>(f)].vertices) p.push_back(vertices[static_cast<size_t>(v)]);
+  return p;
+}
+
+namespace scene_detail {
+
+RawScene read_mesh_file(const std::string& path, const LoadOptions& options) {
+  const std::string ext = lower_extension(path);
+  RawScene raw;
+  if (ext == ".obj") {
+    raw = read_obj(path, options);
+  } else if (ext == ".off" || ext == ".ply" || ext == ".stl" || ext == ".om") {
+    raw = read_openmesh(path, options);
+  } else if (ext == ".json") {
+    throw_bad_input(at(path) + ": a scene file cannot be used as a mesh");
+  } else {
+    throw_bad_input(at(path) + ": unknown mesh format " + in_quotes(ext.empty() ? "(no extension)" : ext) +
+                    " (expected .obj, .off, .ply, .stl, .om or a .json scene)");
+  }
+  if (raw.scene.faces.empty()) throw_bad_input(at(path) + ": no faces");
+  return raw;
+}
+
+}  // namespace scene_detail
+
+Scene load_scene(const std::string& path, const LoadOptions& options) {
+  RawScene raw = lower_extension(path) == ".json" ? read_json_scene(path, options) : read_mesh_file(path, options);
+  clean_geometry(raw.scene, options);
+  if (raw.scene.faces.empty())
+    throw_bad_input(at(path) + ": no face has a non-zero area (" + std::to_string(raw.scene.stats.input_faces) +
+                    " faces read)");
+  drop_unused_materials(raw);
+  check_materials(raw);
+  raw.scene.source = path;
+  return std::move(raw.scene);
+}
+
+}  // namespace photometria

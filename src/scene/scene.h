@@ -1,0 +1,76 @@
+// A scene: welded vertices, planar faces (triangles or convex planar quads), materials, groups.
+//
+// Loading (load_scene) accepts
+//   .obj (+ .mtl through tinyobjloader: Kd = diffuse reflectance, Ke = emitted exitance in W/m²,
+//        usemtl, g / o names become groups),
+//   .off .ply .stl .om (through OpenMesh; every face gets LoadOptions' default material),
+//   .json scene files (meshes + material overrides by OBJ material or group name + settings).
+// and cleans the geometry so that later stages can trust it:
+//   - coincident vertices are welded (distance <= weld_tolerance × bounding-box diagonal),
+//   - zero-area faces are dropped and counted,
+//   - non-planar polygons, non-convex polygons and polygons with more than four vertices are
+//     split into triangles and counted; triangles and planar convex quads are kept as they are.
+// Bad input throws photometria::Error naming the file, the line (text formats) and the value.
+#pragma once
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "geometry/polygon.h"
+
+namespace photometria {
+
+using Rgb = Eigen::Array3d;
+
+struct Material {
+  std::string name;
+  Rgb reflectance = Rgb::Constant(0.5);  // diffuse reflectance ρ per channel, each in [0, 1)
+  Rgb emission = Rgb::Zero();            // emitted exitance E per channel, W/m², >= 0
+  bool is_grey() const { return reflectance.isApproxToConstant(reflectance[0], 0.0) &&
+                                emission.isApproxToConstant(emission[0], 0.0); }
+};
+
+struct Face {
+  std::vector<int> vertices;  // 3 or 4 indices into Scene::vertices, counter-clockwise from the front
+  int material = 0;           // index into Scene::materials
+  int group = 0;              // index into Scene::groups (OBJ g/o name, or one group per mesh file)
+  int source_face = 0;        // index of the face in the input (split faces share it)
+};
+
+// What loading did to the input, reported in the solve summary.
+struct LoadStats {
+  int input_vertices = 0;
+  int input_faces = 0;
+  int welded_vertices = 0;        // vertices merged into an earlier coincident one
+  int dropped_degenerate = 0;     // zero-area faces removed
+  int split_nonplanar = 0;        // non-planar polygons split into triangles
+  int split_polygons = 0;         // convex-planar n-gons (n > 4) or non-convex polygons triangulated
+  int missing_material_files = 0; // mtllib files that could not be read (defaults used)
+};
+
+struct Scene {
+  std::string source;               // path it was loaded from
+  std::vector<Vec3> vertices;
+  std::vector<Face> faces;
+  std::vector<Material> materials;
+  std::vector<std::string> groups;
+  LoadStats stats;
+  nlohmann::json settings = nlohmann::json::object();  // "settings" block of a .json scene file
+
+  Polygon face_polygon(int f) const;
+};
+
+struct LoadOptions {
+  Rgb default_reflectance = Rgb::Constant(0.5);  // for formats without materials
+  Rgb default_emission = Rgb::Zero();            // for formats without materials, W/m²
+  double weld_tolerance = 1e-9;                  // relative to the bounding-box diagonal
+  double planarity_tolerance = 1e-6;             // max vertex distance from the face plane, relative to the face's diameter
+};
+
+// Loads and cleans a scene. Throws photometria::Error (file, line, value) on bad input; checks
+// that every material has 0 <= ρ < 1 and E >= 0.
+Scene load_scene(const std::string& path, const LoadOptions& options = {});
+
+}  // namespace photometria

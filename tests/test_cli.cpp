@@ -1,0 +1,155 @@
+// End-to-end tests of the photometria command line.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+
+#include "io/vtu.h"
+
+namespace fs = std::filesystem;
+using photometria::VtuArray;
+using photometria::VtuGrid;
+
+namespace {
+
+struct CliRun {
+  int exit_code;
+  std::string out, err;
+};
+
+fs::path scratch() {
+  const fs::path dir = fs::temp_directory_path() / ("photometria_cli_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  return dir;
+}
+
+CliRun run(const std::string& args) {
+  const fs::path err_file = scratch() / "stderr.txt";
+  const std::string cmd = std::string(PHOTOMETRIA_BINARY) + " " + args + " 2>" + err_file.string();
+  CliRun r{0, {}, {}};
+  FILE* pipe = popen(cmd.c_str(), "r");
+  char buf[4096];
+  size_t n;
+  while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) r.out.append(buf, n);
+  const int status = pclose(pipe);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream in(err_file);
+  std::stringstream s;
+  s << in.rdbuf();
+  r.err = s.str();
+  return r;
+}
+
+std::string mesh(const std::string& name) { return std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/" + name; }
+
+const VtuArray& array(const std::vector<VtuArray>& arrays, const std::string& name) {
+  for (const auto& a : arrays)
+    if (a.name == name) return a;
+  throw std::runtime_error("missing array " + name);
+}
+
+int count_lines(const std::string& s) { return static_cast<int>(std::count(s.begin(), s.end(), '\n')); }
+
+}  // namespace
+
+TEST(Cli, SolvesTheCornellBoxIntoAVtuWithEveryArray) {
+  const std::string out = (scratch() / "cornell.vtu").string();
+  const CliRun r = run("solve " + mesh("cornell_box.obj") + " -o " + out + " --json --threads 2");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto summary = nlohmann::json::parse(r.out);
+  EXPECT_EQ(summary["visibility"]["mode"], "rays");  // the blocks can occlude
+  EXPECT_EQ(summary["solver"]["channels"], 3);
+  EXPECT_GT(summary["pairs"]["skipped_backfacing"].get<long long>(), 0);
+  const VtuGrid g = photometria::read_vtu(out);
+  const size_t points = g.points.size(), cells = g.cells.size();
+  EXPECT_EQ(cells, summary["patches"].get<size_t>());
+  for (const std::string name : {"radiosity", "irradiance"}) {
+    const VtuArray& a = array(g.point_arrays, name);
+    EXPECT_EQ(a.components, 3);
+    EXPECT_EQ(a.values.size(), 3 * points);
+    for (double v : a.values) ASSERT_TRUE(std::isfinite(v) && v >= 0) << name;
+  }
+  for (const std::string name : {"radiosity", "irradiance", "emission", "reflectance"}) {
+    const VtuArray& a = array(g.cell_arrays, name);
+    EXPECT_EQ(a.values.size(), 3 * cells) << name;
+    for (double v : a.values) ASSERT_TRUE(std::isfinite(v) && v >= 0) << name;
+  }
+  for (const std::string name : {"area", "face", "group"}) {
+    const VtuArray& a = array(g.cell_arrays, name);
+    EXPECT_EQ(a.values.size(), cells) << name;
+  }
+  std::set<double> groups(array(g.cell_arrays, "group").values.begin(), array(g.cell_arrays, "group").values.end());
+  EXPECT_GE(groups.size(), 7u);
+  // The light's cells emit (17, 12, 4) W/m².
+  const auto& e = array(g.cell_arrays, "emission").values;
+  bool light = false;
+  for (size_t c = 0; c < cells; ++c) light = light || (e[3 * c] == 17 && e[3 * c + 1] == 12 && e[3 * c + 2] == 4);
+  EXPECT_TRUE(light);
+}
+
+TEST(Cli, FurnaceCubeIsUniformAndItsEnergyBalanceCloses) {
+  const std::string out = (scratch() / "furnace.vtu").string();
+  const CliRun r = run("solve " + mesh("furnace_cube.obj") + " -o " + out + " --max-edge 0.25 --tolerance 1e-12 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto s = nlohmann::json::parse(r.out);
+  EXPECT_EQ(s["visibility"]["mode"], "none");
+  EXPECT_NE(s["visibility"]["reason"].get<std::string>().find("convex"), std::string::npos);
+  EXPECT_EQ(s["solver"]["channels"], 1);
+  EXPECT_LE(s["energy_w"]["relative_imbalance"].get<double>(), 1e-6);
+  const VtuGrid g = photometria::read_vtu(out);
+  for (double b : array(g.cell_arrays, "radiosity").values) EXPECT_NEAR(b, 2.0, 2e-9);   // E / (1 − ρ)
+  for (double b : array(g.point_arrays, "radiosity").values) EXPECT_NEAR(b, 2.0, 2e-9);  // also at corners
+  EXPECT_EQ(g.points.size(), 6u * 25);  // split at the cube's creases: 5 × 5 points per wall
+}
+
+TEST(Cli, MissingFileIsAnIoErrorAndWritesNothing) {
+  const std::string out = (scratch() / "missing.vtu").string();
+  const CliRun r = run("solve /no/such/room.obj -o " + out);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("/no/such/room.obj"), std::string::npos) << r.err;
+  EXPECT_EQ(count_lines(r.err), 1) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+}
+
+TEST(Cli, MalformedObjLineNamesFileAndLine) {
+  const fs::path obj = scratch() / "bad.obj";
+  std::ofstream(obj) << "v 0 0 0\nv 1 0 0\nv 1 abc 0\nf 1 2 3\n";
+  const std::string out = (scratch() / "bad.vtu").string();
+  const CliRun r = run("solve " + obj.string() + " -o " + out + " --emission 1");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("bad.obj:3"), std::string::npos) << r.err;
+  EXPECT_EQ(count_lines(r.err), 1) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+}
+
+TEST(Cli, ReflectanceOfOneIsRefusedNamingTheValue) {
+  const fs::path dir = scratch();
+  std::ofstream(dir / "white.mtl") << "newmtl white\nKd 1.0 0.5 0.5\nKe 1 1 1\n";
+  std::ofstream(dir / "white.obj") << "mtllib white.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nusemtl white\nf 1 2 3\n";
+  const std::string out = (dir / "white.vtu").string();
+  const CliRun r = run("solve " + (dir / "white.obj").string() + " -o " + out);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("white"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("1"), std::string::npos) << r.err;
+  EXPECT_EQ(count_lines(r.err), 1) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+  const CliRun r2 = run("solve " + mesh("furnace_cube.obj") + " -o " + out + " --max-edge 0.5 --reflectance 1.5");
+  EXPECT_EQ(r2.exit_code, 0) << "materials from the .mtl win over --reflectance: " << r2.err;
+}
+
+TEST(Cli, UnwritableOutputFailsBeforeSolving) {
+  const CliRun r = run("solve " + mesh("furnace_cube.obj") + " -o /no/such/dir/out.vtu");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("/no/such/dir/out.vtu"), std::string::npos) << r.err;
+}
+
+TEST(Cli, HelpExitsZero) {
+  EXPECT_EQ(run("solve --help").exit_code, 0);
+  EXPECT_NE(run("--help").out.find("solve"), std::string::npos);
+}
