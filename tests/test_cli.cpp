@@ -153,3 +153,38 @@ TEST(Cli, HelpExitsZero) {
   EXPECT_EQ(run("solve --help").exit_code, 0);
   EXPECT_NE(run("--help").out.find("solve"), std::string::npos);
 }
+
+TEST(Cli, JsonSceneAppliesMaterialOverridesAndSettings) {
+  const fs::path dir = scratch();
+  std::ofstream(dir / "scene.json") << R"({"meshes": [{"file": ")" << mesh("two_squares.obj") << R"("}],
+    "materials": {"receiver": {"reflectance": [0.25, 0.5, 0.75]}},
+    "settings": {"max_edge": 2.0, "quadrature": 8}})";
+  const std::string out = (dir / "scene.vtu").string();
+  const CliRun r = run("solve " + (dir / "scene.json").string() + " -o " + out + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto s = nlohmann::json::parse(r.out);
+  EXPECT_EQ(s["patches"], 2);  // settings.max_edge = 2 keeps each unit square whole
+  EXPECT_EQ(s["quadrature"], 8);
+  const VtuGrid g = photometria::read_vtu(out);
+  const auto& B = array(g.cell_arrays, "radiosity").values;
+  const auto& H = array(g.cell_arrays, "irradiance").values;
+  // Top square (cell 1): H = F(top -> bottom) · 1 with F ≈ Howell C-11 = 0.19982, B = ρ H.
+  EXPECT_NEAR(H[3], 0.19982489569838738, 1e-6);
+  EXPECT_NEAR(B[3], 0.25 * H[3], 1e-12);
+  EXPECT_NEAR(B[4], 0.5 * H[4], 1e-12);
+  EXPECT_NEAR(B[5], 0.75 * H[5], 1e-12);
+  // A command-line option wins over the scene file's settings.
+  const CliRun r2 = run("solve " + (dir / "scene.json").string() + " -o " + out + " --json --max-edge 0.5");
+  ASSERT_EQ(r2.exit_code, 0) << r2.err;
+  EXPECT_EQ(nlohmann::json::parse(r2.out)["patches"], 8);
+}
+
+TEST(Cli, NothingToSolveIsABadInput) {
+  const fs::path dir = scratch();
+  std::ofstream(dir / "dark.off") << "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+  const CliRun r = run("solve " + (dir / "dark.off").string() + " -o " + (dir / "dark.vtu").string());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("nothing to solve"), std::string::npos) << r.err;
+  const CliRun lit = run("solve " + (dir / "dark.off").string() + " -o " + (dir / "dark.vtu").string() + " --emission 2");
+  EXPECT_EQ(lit.exit_code, 0) << lit.err;
+}

@@ -12,6 +12,7 @@
 #include <fstream>
 #include <map>
 #include <set>
+#include <type_traits>
 
 #include "geometry/polygon.h"
 #include "scene/scene.h"
@@ -294,7 +295,7 @@ TEST(ObjLoading, SingleKdValueIsGrey) {
 
 // ----- cleaning ---------------------------------------------------------------------------------
 
-TEST(Cleaning, ZeroAreaFacesAreDroppedAndCounted) {
+TEST(SceneCleaning, ZeroAreaFacesAreDroppedAndCounted) {
   TempDir dir;
   const std::string path = dir.write("degenerate.obj", std::string(kSquare) +
                                                            "v 1 0 0\n"  // 5: same place as 2
@@ -311,7 +312,7 @@ TEST(Cleaning, ZeroAreaFacesAreDroppedAndCounted) {
   EXPECT_EQ(s.vertices.size(), 4u);  // unused vertex 6 is gone
 }
 
-TEST(Cleaning, WeldToleranceIsRelativeToTheDiagonal) {
+TEST(SceneCleaning, WeldToleranceIsRelativeToTheDiagonal) {
   TempDir dir;
   // Two unit squares sharing an edge through nearly coincident vertices (1e-12 apart).
   const std::string text = std::string(kSquare) + "v 1.000000000001 0 0\nv 2 0 0\nv 2 1 0\nv 1 0.999999999999 0\n"
@@ -327,7 +328,7 @@ TEST(Cleaning, WeldToleranceIsRelativeToTheDiagonal) {
   EXPECT_EQ(apart.vertices.size(), 8u);
 }
 
-TEST(Cleaning, SplitsPolygonsKeepingAreaAndOrientation) {
+TEST(SceneCleaning, SplitsPolygonsKeepingAreaAndOrientation) {
   TempDir dir;
   const std::string path = dir.write("polygons.obj",
                                      "v 0 0 0\nv 1 0 0\nv 1.3 1 0\nv 0.5 1.6 0\nv -0.3 1 0\n"  // convex pentagon
@@ -529,14 +530,14 @@ TEST(JsonScene, Errors) {
 
 // ----- bad input ----------------------------------------------------------------------------------
 
-TEST(BadInput, FilesAndExtensions) {
+TEST(SceneBadInput, FilesAndExtensions) {
   TempDir dir;
   expect_error(dir.path("nothere.obj"), ErrorKind::Io, {"cannot open", "nothere.obj"});
   expect_error(dir.path("nothere.off"), ErrorKind::Io, {"cannot open", "nothere.off"});
   expect_error(dir.write("mesh.xyz", "whatever"), ErrorKind::BadInput, {"mesh.xyz", "'.xyz'"});
 }
 
-TEST(BadInput, ObjLines) {
+TEST(SceneBadInput, ObjLines) {
   TempDir dir;
   const std::string v3 = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
   const struct {
@@ -568,7 +569,7 @@ TEST(BadInput, ObjLines) {
   }
 }
 
-TEST(BadInput, MtlValues) {
+TEST(SceneBadInput, MtlValues) {
   TempDir dir;
   const std::string obj = std::string("mtllib m.mtl\n") + kSquare + "usemtl white\nf 1 2 3 4\n";
   const std::string path = dir.write("box.obj", obj);
@@ -590,7 +591,7 @@ TEST(BadInput, MtlValues) {
   }
 }
 
-TEST(BadInput, DefaultMaterialOutOfRange) {
+TEST(SceneBadInput, DefaultMaterialOutOfRange) {
   TempDir dir;
   LoadOptions options;
   options.default_reflectance = Rgb::Constant(1.0);
@@ -598,10 +599,10 @@ TEST(BadInput, DefaultMaterialOutOfRange) {
                options);
 }
 
-TEST(BadInput, OpenMeshTextFormats) {
+TEST(SceneBadInput, OpenMeshTextFormats) {
   TempDir dir;
   expect_error(dir.write("nan.off", "OFF\n3 1 0\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n"), ErrorKind::BadInput,
-               {"nan.off:4:", "'nan'"});
+               {"nan.off:4:", "vertex 1 coordinate 'nan'"});
   expect_error(dir.write("index.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 9\n"), ErrorKind::BadInput,
                {"index.off:6:", "face index 9 out of range (3 vertices)"});
   expect_error(dir.write("short.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n"), ErrorKind::BadInput, {"short.off", "ends early"});
@@ -612,7 +613,7 @@ TEST(BadInput, OpenMeshTextFormats) {
       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
       "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
   expect_error(dir.write("nan.ply", ply_header + "0 0 0\n1 0 0\n0 1 inf\n3 0 1 2\n"), ErrorKind::BadInput,
-               {"nan.ply:12:", "'inf'"});
+               {"nan.ply:12:", "vertex 2 coordinate 'inf'"});
   expect_error(dir.write("index.ply", ply_header + "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n"), ErrorKind::BadInput,
                {"index.ply:13:", "face index 3 out of range"});
   expect_error(dir.write("inf.stl", "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n"
@@ -620,7 +621,7 @@ TEST(BadInput, OpenMeshTextFormats) {
                ErrorKind::BadInput, {"inf.stl:6:", "'inf'"});
 }
 
-TEST(BadInput, NonFiniteVertexInBinaryMesh) {
+TEST(SceneBadInput, NonFiniteVertexInBinaryMesh) {
   TempDir dir;
   auto cube = unit_cube<OpenMesh::PolyMesh_ArrayKernelT<>>();
   cube.set_point(OpenMesh::VertexHandle(3), OpenMesh::Vec3f(1, std::nanf(""), 0));

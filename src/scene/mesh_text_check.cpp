@@ -35,15 +35,17 @@ class Checker {
 
   [[noreturn]] void fail(long line, const std::string& what) const { throw_bad_input(at(path_, line) + ": " + what); }
 
-  void coordinate(long line, std::string_view token) const {
+  // `vertex` is the 0-based vertex number when known (OFF, PLY), -1 otherwise (STL).
+  void coordinate(long line, std::string_view token, long vertex = -1) const {
+    const std::string which = vertex < 0 ? "vertex" : "vertex " + std::to_string(vertex);
     double x = 0;
-    if (!parse_number(token, x)) fail(line, "bad vertex coordinate " + in_quotes(token));
-    if (!std::isfinite(x)) fail(line, "vertex coordinate " + in_quotes(token) + " is not a finite number");
+    if (!parse_number(token, x)) fail(line, "bad " + which + " coordinate " + in_quotes(token));
+    if (!std::isfinite(x)) fail(line, which + " coordinate " + in_quotes(token) + " is not a finite number");
   }
 
-  void vertex(const Line& l) const {
+  void vertex(const Line& l, long index) const {
     if (l.tokens.size() < 3) fail(l.number, "vertex needs 3 coordinates, got " + std::to_string(l.tokens.size()));
-    for (std::string_view t : l.tokens) coordinate(l.number, t);
+    for (std::string_view t : l.tokens) coordinate(l.number, t, index);
   }
 
   long integer(long line, std::string_view token, const char* what) const {
@@ -100,7 +102,7 @@ void check_off(const std::string& path, std::string_view text) {
   if (static_cast<long>(lines.size() - next) < nv + nf)
     throw_bad_input(at(path) + ": file ends early (expected " + std::to_string(nv) + " vertices and " +
                     std::to_string(nf) + " faces)");
-  for (long i = 0; i < nv; ++i) check.vertex(lines[next + static_cast<size_t>(i)]);
+  for (long i = 0; i < nv; ++i) check.vertex(lines[next + static_cast<size_t>(i)], i);
   for (long i = 0; i < nf; ++i) check.face(lines[next + static_cast<size_t>(nv + i)], nv);
 }
 
@@ -123,7 +125,7 @@ void check_ply(const std::string& path, std::string_view text) {
     if (static_cast<long>(lines.size() - i) < count)
       throw_bad_input(at(path) + ": file ends early (expected " + std::to_string(count) + " " + name + " lines)");
     for (long k = 0; k < count; ++k, ++i) {
-      if (name == "vertex") check.vertex(lines[i]);
+      if (name == "vertex") check.vertex(lines[i], k);
       else if (name == "face") check.face(lines[i], vertices);
     }
     if (name == "vertex") vertices = count;
