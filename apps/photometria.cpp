@@ -1,146 +1,18 @@
 // photometria — command line. Parses, calls the library, prints. No physics here.
-#include <unistd.h>
-
+// Each command lives in its own apps/cmd_<name>.cpp and registers itself in main().
 #include <CLI/CLI.hpp>
-#include <cmath>
-#include <filesystem>
 #include <iostream>
-#include <optional>
 
-#include "io/atomic_file.h"
-#include "io/vtu.h"
-#include "pipeline/report.h"
-#include "pipeline/solve.h"
-#include "scene/scene.h"
+#include "commands.h"
 #include "util/error.h"
 
 namespace pm = photometria;
-
-namespace {
-
-// "0.5" or "0.5,0.4,0.3" -> RGB.
-pm::Rgb parse_rgb(const std::string& text, const std::string& option) {
-  std::vector<double> v;
-  std::stringstream s(text);
-  std::string item;
-  while (std::getline(s, item, ',')) {
-    try {
-      size_t used = 0;
-      v.push_back(std::stod(item, &used));
-      if (used != item.size()) throw std::invalid_argument(item);
-    } catch (const std::exception&) {
-      pm::throw_bad_input(option + ": '" + text + "' is not a number or an R,G,B triple");
-    }
-  }
-  if (v.size() == 1) return pm::Rgb::Constant(v[0]);
-  if (v.size() == 3) return pm::Rgb(v[0], v[1], v[2]);
-  pm::throw_bad_input(option + ": '" + text + "' must be one value or three (R,G,B)");
-}
-
-struct SolveArgs {
-  std::string scene, output;
-  std::optional<double> max_edge, max_area, tolerance;
-  std::optional<int> quadrature, rays, max_iterations;
-  std::optional<std::string> visibility;
-  int threads = 0;
-  uint64_t seed = 1;
-  std::string reflectance = "0.5", emission = "0";
-  bool json = false, quiet = false;
-};
-
-// A value from the command line wins over the scene file's "settings", which wins over the default.
-template <class T>
-T setting(const std::optional<T>& cli, const nlohmann::json& settings, const char* key, T fallback) {
-  if (cli) return *cli;
-  if (settings.contains(key)) {
-    try {
-      return settings.at(key).get<T>();
-    } catch (const std::exception&) {
-      pm::throw_bad_input(std::string("scene settings: '") + key + "' has the wrong type");
-    }
-  }
-  return fallback;
-}
-
-double bounding_diagonal(const pm::Scene& scene) {
-  pm::Vec3 lo = scene.vertices.at(0), hi = lo;
-  for (const auto& v : scene.vertices) { lo = lo.cwiseMin(v); hi = hi.cwiseMax(v); }
-  return (hi - lo).norm();
-}
-
-int run_solve(const SolveArgs& a) {
-  pm::LoadOptions load;
-  load.default_reflectance = parse_rgb(a.reflectance, "--reflectance");
-  load.default_emission = parse_rgb(a.emission, "--emission");
-  const std::string output = a.output.empty() ? std::filesystem::path(a.scene).stem().string() + ".vtu" : a.output;
-  pm::AtomicOutput probe(output);  // fail on an unwritable path before the long work
-
-  const pm::Scene scene = pm::load_scene(a.scene, load);
-  const nlohmann::json& st = scene.settings;
-  pm::SolveOptions opt;
-  // Default patch size: 1/16 of the scene's bounding diagonal (about 10 × 10 patches per wall).
-  opt.patching.max_edge = setting(a.max_edge, st, "max_edge", bounding_diagonal(scene) / 16.0);
-  opt.patching.max_area = setting(a.max_area, st, "max_area", 0.0);
-  opt.quadrature = setting(a.quadrature, st, "quadrature", 1);
-  opt.rays = setting(a.rays, st, "rays", 16);
-  opt.solver.tolerance = setting(a.tolerance, st, "tolerance", 1e-8);
-  opt.solver.max_iterations = setting(a.max_iterations, st, "max_iterations", 100000);
-  const std::string vis = setting(a.visibility, st, "visibility", std::string("auto"));
-  if (vis == "auto") opt.visibility = pm::VisibilityMode::Auto;
-  else if (vis == "none") opt.visibility = pm::VisibilityMode::None;
-  else if (vis == "rays") opt.visibility = pm::VisibilityMode::Rays;
-  else pm::throw_bad_input("--visibility: '" + vis + "' is not one of auto, none, rays (exact comes later)");
-  if (opt.patching.max_edge < 0 || opt.patching.max_area < 0) pm::throw_bad_input("--max-edge/--max-area must be >= 0");
-  if (opt.quadrature < 1 || opt.quadrature > 16) pm::throw_bad_input("--quadrature must be in 1..16");
-  if (opt.rays < 1) pm::throw_bad_input("--rays must be >= 1");
-  if (!(opt.solver.tolerance > 0)) pm::throw_bad_input("--tolerance must be > 0");
-  opt.threads = a.threads;
-  opt.seed = a.seed;
-  if (!a.quiet && isatty(STDERR_FILENO)) {
-    opt.progress = [](const std::string& stage, double f) {
-      std::cerr << "\r  " << stage << " " << static_cast<int>(100 * f) << "%   " << std::flush;
-      if (f >= 1.0) std::cerr << "\r" << std::string(40, ' ') << "\r";
-    };
-  }
-
-  pm::SolveResult result = pm::solve_scene(scene, opt);
-  const auto t0 = std::chrono::steady_clock::now();
-  pm::write_vtu(output, pm::result_grid(scene, result));
-  result.summary.stage_seconds.emplace_back("write", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-
-  if (!a.quiet) std::cerr << pm::summary_table(scene, result.summary) << "  output                " << output << "\n";
-  if (a.json) {
-    nlohmann::json j = pm::summary_json(scene, result.summary);
-    j["output"] = output;
-    std::cout << j.dump(2) << "\n";
-  }
-  return 0;
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"Photometria: radiosity and form factors with Lambert's closed form"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "photometria 0.1.0");
-
-  SolveArgs s;
-  CLI::App* solve = app.add_subcommand("solve", "Solve a room mesh and write per-vertex results (.vtu)");
-  solve->add_option("scene", s.scene, "Mesh (.obj+.mtl .off .ply .stl .om) or scene file (.json)")->required();
-  solve->add_option("-o,--output", s.output, "Output .vtu (default: <scene name>.vtu)");
-  solve->add_option("--max-edge", s.max_edge, "Longest patch edge, metres (default: bounding diagonal / 16)");
-  solve->add_option("--max-area", s.max_area, "Largest patch area, m² (default: no limit)");
-  solve->add_option("--quadrature", s.quadrature, "Receiver rule: 1 = centroid, n = n×n Gauss points (default 1)");
-  solve->add_option("--visibility", s.visibility, "auto | none | rays (default auto)");
-  solve->add_option("--rays", s.rays, "Rays per pair for --visibility rays (default 16)");
-  solve->add_option("--seed", s.seed, "Ray sampling seed (default 1)");
-  solve->add_option("--tolerance", s.tolerance, "Solver relative residual (default 1e-8)");
-  solve->add_option("--max-iterations", s.max_iterations, "Solver sweep cap (default 100000)");
-  solve->add_option("--threads", s.threads, "Threads (default: all cores)");
-  solve->add_option("--reflectance", s.reflectance, "Default reflectance for formats without materials: r or r,g,b");
-  solve->add_option("--emission", s.emission, "Default emission (W/m²) for formats without materials: e or r,g,b");
-  solve->add_flag("--json", s.json, "Print a machine-readable summary on stdout");
-  solve->add_flag("--quiet", s.quiet, "No summary table or progress on stderr");
+  const std::vector<Command> commands = {add_solve_command(app)};
 
   try {
     app.parse(argc, argv);
@@ -150,7 +22,8 @@ int main(int argc, char** argv) {
     return 1;
   }
   try {
-    if (solve->parsed()) return run_solve(s);
+    for (const Command& c : commands)
+      if (c.subcommand->parsed()) return c.run();
   } catch (const pm::Error& e) {
     std::cerr << "photometria: " << e.what() << "\n";
     return e.exit_code();
