@@ -10,6 +10,7 @@
 #include "commands.h"
 #include "io/atomic_file.h"
 #include "io/vtu.h"
+#include "pipeline/memory.h"
 #include "pipeline/report.h"
 #include "pipeline/solve.h"
 #include "scene/scene.h"
@@ -33,6 +34,8 @@ pm::Rgb parse_rgb(const std::string& text, const std::string& option) {
       pm::throw_bad_input(option + ": '" + text + "' is not a number or an R,G,B triple");
     }
   }
+  for (double x : v)
+    if (!std::isfinite(x)) pm::throw_bad_input(option + ": '" + text + "' is not a finite number");
   if (v.size() == 1) return pm::Rgb::Constant(v[0]);
   if (v.size() == 3) return pm::Rgb(v[0], v[1], v[2]);
   pm::throw_bad_input(option + ": '" + text + "' must be one value or three (R,G,B)");
@@ -43,6 +46,9 @@ struct SolveArgs {
   std::optional<double> max_edge, max_area, tolerance;
   std::optional<int> quadrature, rays, max_iterations;
   std::optional<std::string> visibility;
+  std::optional<std::string> solver;
+  std::optional<std::string> max_memory;
+  bool flip_normals = false, keep_orientation = false;
   int threads = 0;
   uint64_t seed = 1;
   std::string reflectance = "0.5", emission = "0";
@@ -73,28 +79,41 @@ int run_solve(const SolveArgs& a) {
   pm::LoadOptions load;
   load.default_reflectance = parse_rgb(a.reflectance, "--reflectance");
   load.default_emission = parse_rgb(a.emission, "--emission");
+  load.flip_normals = a.flip_normals;
+  load.fix_orientation = !a.keep_orientation;
+  double max_memory = 0.0;  // 0 = MemAvailable
+  if (a.max_memory && !pm::parse_memory_size(*a.max_memory, max_memory))
+    pm::throw_bad_input("--max-memory: '" + *a.max_memory + "' is not a size (e.g. 512M, 2G, 1.5GiB)");
   const std::string output = a.output.empty() ? std::filesystem::path(a.scene).stem().string() + ".vtu" : a.output;
   pm::AtomicOutput probe(output);  // fail on an unwritable path before the long work
 
   const pm::Scene scene = pm::load_scene(a.scene, load);
+  if (!a.quiet)
+    for (const std::string& w : pm::load_warnings(scene.stats)) std::cerr << "photometria: warning: " << scene.source << ": " << w << "\n";
   const nlohmann::json& st = scene.settings;
   pm::SolveOptions opt;
   // Default patch size: 1/16 of the scene's bounding diagonal (about 10 × 10 patches per wall).
   opt.patching.max_edge = setting(a.max_edge, st, "max_edge", bounding_diagonal(scene) / 16.0);
   opt.patching.max_area = setting(a.max_area, st, "max_area", 0.0);
   opt.quadrature = setting(a.quadrature, st, "quadrature", 1);
-  opt.rays = setting(a.rays, st, "rays", 16);
+  opt.rays = setting(a.rays, st, "rays", 576);
   opt.solver.tolerance = setting(a.tolerance, st, "tolerance", 1e-8);
   opt.solver.max_iterations = setting(a.max_iterations, st, "max_iterations", 100000);
+  opt.solver.method = pm::parse_method(setting(a.solver, st, "solver", std::string("auto")));
   const std::string vis = setting(a.visibility, st, "visibility", std::string("auto"));
   if (vis == "auto") opt.visibility = pm::VisibilityMode::Auto;
   else if (vis == "none") opt.visibility = pm::VisibilityMode::None;
   else if (vis == "rays") opt.visibility = pm::VisibilityMode::Rays;
-  else pm::throw_bad_input("--visibility: '" + vis + "' is not one of auto, none, rays (exact comes later)");
-  if (opt.patching.max_edge < 0 || opt.patching.max_area < 0) pm::throw_bad_input("--max-edge/--max-area must be >= 0");
+  else if (vis == "exact") opt.visibility = pm::VisibilityMode::Exact;
+  else pm::throw_bad_input("--visibility: '" + vis + "' is not one of auto, none, rays, exact");
+  // Written so that NaN fails too.
+  if (!(opt.patching.max_edge >= 0 && opt.patching.max_area >= 0) || !std::isfinite(opt.patching.max_edge) ||
+      !std::isfinite(opt.patching.max_area))
+    pm::throw_bad_input("--max-edge/--max-area must be finite and >= 0");
   if (opt.quadrature < 1 || opt.quadrature > 16) pm::throw_bad_input("--quadrature must be in 1..16");
   if (opt.rays < 1) pm::throw_bad_input("--rays must be >= 1");
-  if (!(opt.solver.tolerance > 0)) pm::throw_bad_input("--tolerance must be > 0");
+  if (!(opt.solver.tolerance > 0) || !std::isfinite(opt.solver.tolerance)) pm::throw_bad_input("--tolerance must be finite and > 0");
+  opt.max_memory_bytes = max_memory;
   opt.threads = a.threads;
   opt.seed = a.seed;
   if (!a.quiet && isatty(STDERR_FILENO)) {
@@ -129,14 +148,18 @@ Command add_solve_command(CLI::App& app) {
   solve->add_option("--max-edge", s.max_edge, "Longest patch edge, metres (default: bounding diagonal / 16)");
   solve->add_option("--max-area", s.max_area, "Largest patch area, m² (default: no limit)");
   solve->add_option("--quadrature", s.quadrature, "Receiver rule: 1 = centroid, n = n×n Gauss points (default 1)");
-  solve->add_option("--visibility", s.visibility, "auto | none | rays (default auto)");
-  solve->add_option("--rays", s.rays, "Rays per pair for --visibility rays (default 16)");
+  solve->add_option("--visibility", s.visibility, "auto | none | rays | exact (default auto)");
+  solve->add_option("--rays", s.rays, "Rays per receiver point and patch for --visibility rays (default 576 = 24²)");
   solve->add_option("--seed", s.seed, "Ray sampling seed (default 1)");
   solve->add_option("--tolerance", s.tolerance, "Solver relative residual (default 1e-8)");
   solve->add_option("--max-iterations", s.max_iterations, "Solver sweep cap (default 100000)");
+  solve->add_option("--solver", s.solver, "auto | gauss-seidel | sor | cg | gmres | direct (default auto)");
   solve->add_option("--threads", s.threads, "Threads (default: all cores)");
   solve->add_option("--reflectance", s.reflectance, "Default reflectance for formats without materials: r or r,g,b");
   solve->add_option("--emission", s.emission, "Default emission (W/m²) for formats without materials: e or r,g,b");
+  solve->add_option("--max-memory", s.max_memory, "Refuse to solve when the memory estimate exceeds this: 512M, 2G, ... (default: MemAvailable)");
+  solve->add_flag("--flip-normals", s.flip_normals, "Reverse every face's winding (inside-out exports)");
+  solve->add_flag("--keep-orientation", s.keep_orientation, "Do not flip faces wound against their closed surface");
   solve->add_flag("--json", s.json, "Print a machine-readable summary on stdout");
   solve->add_flag("--quiet", s.quiet, "No summary table or progress on stderr");
   return {solve, [args] { return run_solve(*args); }};

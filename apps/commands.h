@@ -11,3 +11,5 @@ struct Command {
 };
 
 Command add_solve_command(CLI::App& app);
+Command add_validate_command(CLI::App& app);
+Command add_formfactor_command(CLI::App& app);

@@ -11,3 +11,15 @@ build/bench/bench_kernels --benchmark_min_time=0.01 >/dev/null
 BUILD_DIR=build-asan BUILD_TYPE=RelWithDebInfo scripts/build.sh -DPHOTOMETRIA_SANITIZE=ON -DPHOTOMETRIA_BENCHMARKS=OFF
 ASAN_OPTIONS=detect_leaks=0 UBSAN_OPTIONS=print_stacktrace=1 \
   ctest --test-dir build-asan --output-on-failure -j"$(nproc)"
+# libFuzzer targets for the loaders (tests/fuzz: OBJ+MTL, JSON scene, JSON queries), built with
+# Clang into build-fuzz and each run for 30 s from its seed corpus tests/fuzz/corpus/<target>
+# (inputs it finds go to build-fuzz/corpus/<target>; a crash leaves crash-* in build-fuzz).
+CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPHOTOMETRIA_FUZZ=ON \
+  -DPHOTOMETRIA_WERROR=OFF -DPHOTOMETRIA_BENCHMARKS=OFF >/dev/null
+for source in tests/fuzz/fuzz_*.cpp; do
+  target=$(basename "$source" .cpp)
+  cmake --build build-fuzz -j"$(nproc)" --target "$target"
+  mkdir -p "build-fuzz/corpus/$target"
+  ASAN_OPTIONS=detect_leaks=0 "build-fuzz/tests/fuzz/$target" "build-fuzz/corpus/$target" "tests/fuzz/corpus/$target" \
+    -max_total_time=30 -timeout=10 -rss_limit_mb=2048 -artifact_prefix=build-fuzz/ -print_final_stats=1
+done

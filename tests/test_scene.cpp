@@ -259,7 +259,7 @@ TEST(ObjLoading, GroupsObjectsAndDefaultMaterial) {
   const std::string path = dir.write("parts.obj", std::string(kSquare) +
                                                       "f 1 2 3\n"
                                                       "o thing\nf 1 3 4\n"
-                                                      "g a b\nf -4 -2 -1\n");
+                                                      "g a b\nf -4 -3 -1\n");  // not a duplicate of f 1 3 4
   LoadOptions options;
   options.default_reflectance = Rgb(0.1, 0.2, 0.3);
   options.default_emission = Rgb::Constant(2);
@@ -271,7 +271,7 @@ TEST(ObjLoading, GroupsObjectsAndDefaultMaterial) {
   expect_rgb(s.materials[0].emission, Rgb::Constant(2));
   ASSERT_EQ(s.faces.size(), 3u);
   for (int f = 0; f < 3; ++f) EXPECT_EQ(s.faces[size_t(f)].source_face, f);
-  EXPECT_EQ(s.faces[2].vertices, (std::vector<int>{0, 2, 3}));  // relative indices
+  EXPECT_EQ(s.faces[2].vertices, (std::vector<int>{0, 1, 3}));  // relative indices
 }
 
 TEST(ObjLoading, MissingMtlKeepsUsemtlNamesWithDefaults) {

@@ -66,7 +66,7 @@ TEST(GaussSeidel, ReportsNonConvergenceAtTheCap) {
   const FormFactorMatrix F = furnace_matrix(mesh);
   const int n = mesh.size();
   ChannelMatrix E = ChannelMatrix::Constant(n, 3, 1.0), R = ChannelMatrix::Constant(n, 3, 0.99), B;
-  const SolverReport rep = solve_radiosity(F, E, R, ChannelMatrix::Zero(n, 3), true, {1e-12, 5}, B);
+  const SolverReport rep = solve_radiosity(F, E, R, ChannelMatrix::Zero(n, 3), true, {1e-12, 5, SolverMethod::GaussSeidel}, B);
   EXPECT_FALSE(rep.converged);
   EXPECT_EQ(rep.iterations, 5);
   EXPECT_GT(rep.residual, 1e-12);

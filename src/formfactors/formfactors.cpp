@@ -32,44 +32,122 @@ FormFactorMatrix fill_form_factors(const PatchMesh& mesh, const FillOptions& opt
   const int n = mesh.size();
   FormFactorMatrix F = FormFactorMatrix::Zero(n, n);
   const double tol = plane_tolerance(mesh);
+  const Visibility* vis = options.visibility;
+  const bool rays_mode = vis && vis->method() == VisibilityMethod::Rays;
   std::atomic<int> rows_done{0};
-  long long evaluated = 0, backfacing = 0, occluded = 0, rays = 0;
+  long long evaluated = 0, backfacing = 0, tested = 0, culled = 0, occluded = 0, rays = 0, above = 0, rescaled = 0;
+  double max_point_sum = 0.0;
 
-#pragma omp parallel for schedule(dynamic, 4) reduction(+ : evaluated, backfacing, occluded, rays)
+#pragma omp parallel for schedule(dynamic, 4) \
+    reduction(+ : evaluated, backfacing, tested, culled, occluded, rays, above, rescaled) reduction(max : max_point_sum)
   for (int i = 0; i < n; ++i) {
     Vec3 ri[4], sj[4];
     mesh.polygon(i, ri);
     const Patch& pi = mesh.patches[i];
     const auto rule = patch_quadrature(ri, pi.corner_count, options.quadrature);
+    const int nq = static_cast<int>(rule.size());
+    // Per receiver point: its visible factor to each source (for the row-sum check and scaling),
+    // and the part of that which rays estimated (the only part that may need scaling).
+    std::vector<double> point_sum(nq, 0.0), ray_part;
+    if (rays_mode) ray_part.assign(size_t(nq) * n, 0.0);
+    std::vector<double> unoccluded(nq);
+    std::vector<int> occluders;
     for (int j = 0; j < n; ++j) {
       if (j == i || facing_away(mesh, i, j, tol)) { backfacing += (j != i); continue; }
       const Patch& pj = mesh.patches[j];
       mesh.polygon(j, sj);
-      double f = 0.0;
-      for (const QuadraturePoint& q : rule)
-        f += q.weight * lambert_form_factor(Receiver{q.point, pi.normal}, sj, pj.corner_count);
-      ++evaluated;
-      if (options.visibility && f > 0.0) {
-        // Sample the pair in index order so that V_ij == V_ji (reciprocity survives the rays).
-        const bool ordered = i < j;
-        const double v = options.visibility->patch_to_patch(
-            ordered ? ri : sj, ordered ? pi.corner_count : pj.corner_count, ordered ? pi.normal : pj.normal,
-            ordered ? sj : ri, ordered ? pj.corner_count : pi.corner_count, ordered ? pj.normal : pi.normal,
-            options.rays, pair_stream(options.seed, std::min(i, j), std::max(i, j)));
-        rays += options.rays;
-        if (v == 0.0) ++occluded;
-        f *= v;
+      double f0 = 0.0;
+      for (int q = 0; q < nq; ++q) {
+        // A receiver point in P_j's plane sees P_j edge-on. Lambert's kernel returns its limit
+        // from P_j's front when the point is on P_j's boundary (right for vertices at creases);
+        // an interior quadrature point lands there only where a face of an occluder stands on
+        // patch i (a table leg on the floor), and then that limit and the occlusion seen from
+        // the point itself would count half a hemisphere twice. With visibility on, take 0.
+        unoccluded[q] = vis && std::abs(pj.normal.dot(rule[q].point - pj.centroid)) <= vis->culler().tolerance()
+                            ? 0.0
+                            : lambert_form_factor(Receiver{rule[q].point, pi.normal}, sj, pj.corner_count);
+        f0 += rule[q].weight * unoccluded[q];
       }
+      ++evaluated;
+      double f = f0;
+      if (vis && f0 > 0.0) {
+        ++tested;
+        vis->culler().occluders(ri, pi.corner_count, sj, pj.corner_count, occluders);
+        if (occluders.empty()) {
+          ++culled;
+        } else {
+          f = 0.0;
+          const uint64_t stream = pair_stream(options.seed, uint64_t(i), uint64_t(j));
+          for (int q = 0; q < nq; ++q) {
+            const double v = vis->point_to_patch(Receiver{rule[q].point, pi.normal}, sj, pj.corner_count, pj.normal,
+                                                 unoccluded[q], occluders, options.rays,
+                                                 pair_stream(stream, uint64_t(q), 0), rays);
+            if (rays_mode) ray_part[size_t(q) * n + j] = v;
+            unoccluded[q] = v;  // now the visible factor
+            f += rule[q].weight * v;
+          }
+          if (f == 0.0) ++occluded;
+          if (f > f0) ++above;
+        }
+      }
+      for (int q = 0; q < nq; ++q) point_sum[q] += unoccluded[q];
       F(i, j) = f;
+    }
+    // A receiver point sees at most its hemisphere: Σ_j F_vis(x_q -> P_j) <= 1. Scale the
+    // ray-estimated terms of a point whose sum exceeds that (see the header).
+    for (int q = 0; q < nq; ++q) {
+      max_point_sum = std::max(max_point_sum, point_sum[q]);
+      if (!rays_mode || point_sum[q] <= 1.0) continue;
+      double ray_sum = 0.0;
+      for (int j = 0; j < n; ++j) ray_sum += ray_part[size_t(q) * n + j];
+      if (ray_sum <= 0.0) continue;
+      // Keep the unoccluded (culled) terms, shrink the ray terms so the point's sum becomes 1.
+      const double keep = std::max(0.0, 1.0 - (point_sum[q] - ray_sum)) / ray_sum;
+      if (keep >= 1.0) continue;
+      ++rescaled;
+      for (int j = 0; j < n; ++j) {
+        const double v = ray_part[size_t(q) * n + j];
+        if (v > 0.0) F(i, j) = std::max(0.0, F(i, j) - rule[q].weight * v * (1.0 - keep));
+      }
     }
     const int done = ++rows_done;
     if (options.progress && omp_get_thread_num() == 0) options.progress(double(done) / n);
   }
   stats.pairs_evaluated += evaluated;
   stats.pairs_backfacing += backfacing;
+  stats.pairs_tested += tested;
+  stats.pairs_culled += culled;
   stats.pairs_occluded += occluded;
   stats.rays_cast += rays;
+  stats.above_unoccluded += above;
+  stats.max_point_row_sum = std::max(stats.max_point_row_sum, max_point_sum);
+  stats.points_rescaled += rescaled;
   return F;
+}
+
+FormFactorChecks check_form_factors(const PatchMesh& mesh, const FormFactorMatrix& F) {
+  FormFactorChecks c;
+  const int n = mesh.size();
+  if (n == 0) return c;
+  c.min_entry = 1.0;
+  c.min_row_sum = c.max_row_sum = F.row(0).sum();
+  for (int i = 0; i < n; ++i) {
+    const double row = F.row(i).sum();
+    c.min_row_sum = std::min(c.min_row_sum, row);
+    c.max_row_sum = std::max(c.max_row_sum, row);
+    const double ai = mesh.patches[i].area;
+    for (int j = 0; j < n; ++j) {
+      if (j == i) continue;
+      c.min_entry = std::min(c.min_entry, F(i, j));
+      c.max_entry = std::max(c.max_entry, F(i, j));
+      if (j > i) {
+        const double aj = mesh.patches[j].area;
+        c.reciprocity_error = std::max(c.reciprocity_error, std::abs(ai * F(i, j) - aj * F(j, i)) / std::min(ai, aj));
+      }
+    }
+  }
+  if (n == 1) c.min_entry = 0.0;
+  return c;
 }
 
 }  // namespace photometria

@@ -1,11 +1,19 @@
 // Form-factor assembly: F_ij from patch i to patch j for every pair of patches.
 //
-//   F_ij = Σ_q w_q F(dA_{x_q} -> P_j) · V_ij
+//   F_ij = Σ_q w_q F_vis(x_q -> P_j),   F_vis(x -> P) = visible part of F(dA_x -> P)
 // with F(dA -> P) Lambert's closed form (kernels/lambert.h), x_q, w_q the receiver quadrature on
-// patch i (formfactors/quadrature.h) and V_ij the visible fraction (visibility/visibility.h; 1
-// when visibility is off). Pairs that face away from each other are skipped without evaluation:
-// if patch j lies wholly on or below patch i's plane, or patch i wholly on or behind patch j's
-// plane, F_ij = 0 (one-sided emission and reception).
+// patch i (formfactors/quadrature.h) and F_vis from visibility/visibility.h per receiver point:
+// unoccluded when the shaft of (patch i, patch j) meets no face, else by rays (F · V(x_q, P_j)) or
+// exactly (Lambert over the visible fragments). Pairs that face away from each other are skipped
+// without evaluation: if patch j lies wholly on or below patch i's plane, or patch i wholly on or
+// behind patch j's plane, F_ij = 0 (one-sided emission and reception).
+//
+// Row sums. For one receiver point the visible parts of all patches are disjoint pieces of its
+// hemisphere, so Σ_j F_vis(x -> P_j) <= 1 (= 1 in a closed room), and so is every row's weighted
+// sum over q. The exact mode keeps this to rounding. Ray estimates of V carry sampling noise that
+// can push a point's sum above 1; each point's ray-estimated contributions are then scaled down
+// so that its sum is 1 (the nearest point of the constraint along that direction; the change is
+// of the order of the ray error and is reported as max_point_row_sum).
 #pragma once
 
 #include <Eigen/Core>
@@ -22,8 +30,8 @@ using FormFactorMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, E
 
 struct FillOptions {
   int quadrature = 1;                        // receiver rule order (1 = centroid)
-  const RayVisibility* visibility = nullptr; // null: no occlusion test
-  int rays = 16;                             // segments per pair when visibility is on
+  const Visibility* visibility = nullptr;    // null: no occlusion test (every pair unoccluded)
+  int rays = 576;                            // rays per (receiver point, source patch) in ray mode
   uint64_t seed = 1;                         // ray sampling seed (results repeat for a seed)
   std::function<void(double)> progress;      // called with the fraction done (from one thread)
 };
@@ -31,9 +39,22 @@ struct FillOptions {
 struct FillStats {
   long long pairs_evaluated = 0;   // pairs whose kernel was evaluated
   long long pairs_backfacing = 0;  // skipped: facing away or coplanar
+  long long pairs_tested = 0;      // evaluated, F > 0, visibility on: shaft tested
+  long long pairs_culled = 0;      // of those (or all, when the scene is convex): no face in the shaft
   long long pairs_occluded = 0;    // evaluated, then found fully blocked
   long long rays_cast = 0;
+  long long above_unoccluded = 0;  // pairs with F_ij > F_ij unoccluded (must stay 0)
+  double max_point_row_sum = 0.0;  // largest Σ_j F_vis(x_q -> P_j) over receiver points, before scaling
+  long long points_rescaled = 0;   // receiver points whose ray-estimated sum exceeded 1 and was scaled
 };
+
+// The invariants of a filled matrix (checked in tests and reported in the summary).
+struct FormFactorChecks {
+  double min_entry = 0.0, max_entry = 0.0;        // over all i != j; must lie in [0, 1]
+  double min_row_sum = 0.0, max_row_sum = 0.0;    // Σ_j F_ij; <= 1, and 1 in a closed scene
+  double reciprocity_error = 0.0;  // max over pairs |A_i F_ij − A_j F_ji| / min(A_i, A_j)
+};
+FormFactorChecks check_form_factors(const PatchMesh& mesh, const FormFactorMatrix& F);
 
 // True when the pair (receiver i, source j) cannot exchange light: j on/below i's plane or i
 // on/behind j's plane (with a tolerance of `tol` metres).

@@ -4,17 +4,12 @@
 #include <cmath>
 #include <limits>
 
+#include "kernels/visible_polygon.h"
+
 namespace photometria {
 namespace {
 
 constexpr double kEps = std::numeric_limits<double>::epsilon();
-
-// Small-buffer storage: patches have 3–4 vertices; clipping and boundary vertices can at most
-// double that. Larger query polygons fall back to the heap.
-struct Scratch {
-  Polygon work, clipped;
-};
-thread_local Scratch scratch;
 
 // Σ_i Θ_i N·(a_i × a_{i+1}) / |a_i × a_{i+1}|   (seed 000 eq. 1, seed 002 eq. 3)
 double lambert_sum(const Polygon& a, const Vec3& N) {
@@ -32,22 +27,30 @@ double lambert_sum(const Polygon& a, const Vec3& N) {
   return sum;
 }
 
+// Per-thread scratch: patches have 3–4 vertices; clipping and boundary vertices can at most
+// double that. Larger query polygons fall back to the heap.
+thread_local VisiblePolygon scratch;
+thread_local Polygon boundary_scratch;
+
 }  // namespace
 
-double lambert_form_factor(const Receiver& receiver, const Vec3* v, int n) {
-  if (n < 3) return 0.0;
+bool visible_polygon(const Receiver& receiver, const Vec3* v, int n, VisiblePolygon& out) {
+  out.whole = false;
+  if (n < 3) return false;
   const Vec3& p = receiver.point;
   const Vec3& N = receiver.normal;
-  Polygon& a = scratch.work;
+  Polygon& a = out.a;
   a.resize(n);
   double magnitude = p.lpNorm<Eigen::Infinity>();
+  bool all_above = true;
   for (int i = 0; i < n; ++i) {
-    a[i] = v[i] - p;
+    a[i] = v[i] - p;  // relative to the receiver: a 1e6 offset of everything changes nothing
     magnitude = std::max(magnitude, v[i].lpNorm<Eigen::Infinity>());
+    all_above = all_above && N.dot(a[i]) >= 0.0;
   }
   const Vec3 newell = newell_vector(a);
   const double newell_len = newell.norm();
-  if (newell_len == 0.0 || magnitude == 0.0) return 0.0;  // degenerate polygon
+  if (newell_len == 0.0 || magnitude == 0.0) return false;  // degenerate polygon
   const Vec3 front = newell / newell_len;
   // Signed distance of p in front of the polygon's plane (mean over vertices for robustness).
   Vec3 mean = Vec3::Zero();
@@ -55,13 +58,13 @@ double lambert_form_factor(const Receiver& receiver, const Vec3* v, int n) {
   const double height = -front.dot(mean) / n;
   // What rounding of the inputs can hide: a few ulps of the coordinates' magnitude.
   const double tol = 16.0 * kEps * magnitude;
-  if (height < -tol) return 0.0;  // seen from the back: one-sided
+  if (height < -tol) return false;  // seen from the back: one-sided
 
   if (height <= tol) {
     // p lies in the polygon's plane: zero solid angle unless p is on the boundary, where the
     // value is the limit as p is approached from inside the receiver's surface.
-    Polygon boundary;
-    boundary.reserve(2 * n);
+    Polygon& boundary = boundary_scratch;
+    boundary.clear();
     bool on_boundary = false;
     for (int i = 0; i < n; ++i) {
       const Vec3& ai = a[i];
@@ -79,21 +82,31 @@ double lambert_form_factor(const Receiver& receiver, const Vec3* v, int n) {
         boundary.push_back(Vec3::Zero());
       }
     }
-    if (!on_boundary) return 0.0;
+    if (!on_boundary) return false;
     Vec3 u = receiver.approach.isZero() ? Vec3(front - front.dot(N) * N) : receiver.approach;
     u -= u.dot(N) * N;  // keep the approach in the receiver plane
     const double ulen = u.norm();
-    if (ulen <= 1e-12 || front.dot(u) <= 0.0) return 0.0;  // polygon in the receiver plane, or approached from behind
+    if (ulen <= 1e-12 || front.dot(u) <= 0.0) return false;  // polygon in the receiver plane, or approached from behind
     u /= ulen;
     // Seen from p + εu, a vertex at p lies in direction -u (only directions matter below).
     for (Vec3& b : boundary)
       if (b.isZero()) b = -u;
     a.swap(boundary);
+    all_above = false;  // clip below: the substituted directions lie on the horizon
   }
 
-  clip_to_halfspace(a.data(), static_cast<int>(a.size()), N, scratch.clipped);
-  if (scratch.clipped.size() < 3) return 0.0;
-  const double f = -lambert_sum(scratch.clipped, N) / (2.0 * M_PI);
+  if (all_above) {
+    out.whole = true;  // wholly above the horizon: no clipping needed
+    return true;
+  }
+  boundary_scratch.swap(a);
+  clip_to_halfspace(boundary_scratch.data(), static_cast<int>(boundary_scratch.size()), N, a);
+  return a.size() >= 3;
+}
+
+double lambert_form_factor(const Receiver& receiver, const Vec3* v, int n) {
+  if (!visible_polygon(receiver, v, n, scratch)) return 0.0;
+  const double f = -lambert_sum(scratch.a, receiver.normal) / (2.0 * M_PI);
   return std::clamp(f, 0.0, 1.0);
 }
 

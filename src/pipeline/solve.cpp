@@ -7,6 +7,7 @@
 #include <cmath>
 #include <memory>
 #include <sstream>
+#include <stdexcept>
 
 #include "kernels/lambert.h"
 #include "util/error.h"
@@ -76,33 +77,36 @@ void split_output_points(const Scene& scene, SolveResult& r) {
   }
 }
 
-// H(x) = Σ_j F(dA_x -> P_j) V(x, P_j) B_j at every output point (Baum et al. 1989).
-void gather_at_points(const Scene& scene, const RayVisibility* vis, const SolveOptions& opt, SolveResult& r) {
+// H(x) = Σ_j F_vis(dA_x -> P_j) B_j at every output point (Baum et al. 1989), with the same
+// shaft culling and visibility method as the fill (visibility/visibility.h).
+void gather_at_points(const Scene& scene, const Visibility* vis, const SolveOptions& opt, SolveResult& r) {
   const PatchMesh& mesh = r.mesh;
   const int np = static_cast<int>(r.points.size());
   const double tol = plane_tolerance(mesh);
   r.point_irradiance = ChannelMatrix::Zero(np, 3);
   r.point_radiosity = ChannelMatrix::Zero(np, 3);
-  long long evaluated = 0, rays = 0;
-#pragma omp parallel for schedule(dynamic, 16) reduction(+ : evaluated, rays)
+  long long evaluated = 0, rays = 0, tested = 0, culled = 0;
+#pragma omp parallel for schedule(dynamic, 16) reduction(+ : evaluated, rays, tested, culled)
   for (int o = 0; o < np; ++o) {
     const OutputPoint& x = r.points[o];
     Eigen::RowVector3d h = Eigen::RowVector3d::Zero();
     Vec3 src[4];
+    std::vector<int> occluders;
     for (int j = 0; j < mesh.size(); ++j) {
       const Patch& pj = mesh.patches[j];
       double above = -1.0;
       for (int k = 0; k < pj.corner_count; ++k) above = std::max(above, x.normal.dot(mesh.points[pj.corners[k]] - x.position));
       if (above <= tol || pj.normal.dot(x.position - pj.centroid) < -tol) continue;
       mesh.polygon(j, src);
-      double f = lambert_form_factor(Receiver{x.position, x.normal, x.approach}, src, pj.corner_count);
+      const Receiver receiver{x.position, x.normal, x.approach};
+      double f = lambert_form_factor(receiver, src, pj.corner_count);
       ++evaluated;
       if (f > 0.0 && vis) {
-        // Start the rays just inside the point's own surface so they leave corners cleanly.
-        const Vec3 start = x.position + 10 * vis->surface_offset() * x.approach;
-        f *= vis->point_to_patch(start, x.normal, src, pj.corner_count, pj.normal, opt.rays,
-                                 pair_stream(opt.seed ^ 0x5eedULL, uint64_t(o), uint64_t(j)));
-        rays += opt.rays;
+        ++tested;
+        vis->culler().occluders(&x.position, 1, src, pj.corner_count, occluders);
+        if (occluders.empty()) ++culled;
+        else f = vis->point_to_patch(receiver, src, pj.corner_count, pj.normal, f, occluders, opt.rays,
+                                     pair_stream(opt.seed ^ 0x5eedULL, uint64_t(o), uint64_t(j)), rays);
       }
       h += f * r.radiosity.row(j);
     }
@@ -112,6 +116,8 @@ void gather_at_points(const Scene& scene, const RayVisibility* vis, const SolveO
   }
   r.summary.vertex_pairs_evaluated = evaluated;
   r.summary.vertex_rays_cast = rays;
+  r.summary.vertex_pairs_tested = tested;
+  r.summary.vertex_pairs_culled = culled;
 }
 
 EnergyBalance energy_balance(const FormFactorMatrix& F, const SolveResult& r) {
@@ -129,6 +135,19 @@ EnergyBalance energy_balance(const FormFactorMatrix& F, const SolveResult& r) {
     if (e.emitted[c] > 0)
       e.relative_imbalance = std::max(e.relative_imbalance, std::abs(e.emitted[c] - e.absorbed[c] - e.escaped[c]) / e.emitted[c]);
   return e;
+}
+
+// Estimates the memory of the solve and refuses when the storage in use would not fit.
+void check_memory(const PatchMesh& mesh, const SolveOptions& opt, SolveSummary& s) {
+  s.memory = estimate_memory(mesh, opt.seed);
+  s.memory_limit_bytes = opt.max_memory_bytes > 0 ? opt.max_memory_bytes : available_memory_bytes();
+  s.memory_limit_source = opt.max_memory_bytes > 0 ? "--max-memory" : "MemAvailable";
+  if (s.memory_limit_bytes <= 0 || s.memory.dense_bytes <= s.memory_limit_bytes) return;
+  const std::string limit = opt.max_memory_bytes > 0
+                                ? "--max-memory is " + format_bytes(s.memory_limit_bytes)
+                                : "only " + format_bytes(s.memory_limit_bytes) + " is available (MemAvailable; set --max-memory to override)";
+  throw_bad_input("needs " + format_bytes(s.memory.dense_bytes) + " for " + format_count(s.patches) + " patches (" +
+                  s.matrix_storage + " form factors) but " + limit + "; raise --max-edge");
 }
 
 }  // namespace
@@ -161,17 +180,19 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
   fill_materials(scene, r);
   timer.lap("patching");
 
-  std::unique_ptr<RayVisibility> vis;
+  std::unique_ptr<Visibility> vis;
   std::string reason;
   switch (opt.visibility) {
     case VisibilityMode::None: s.visibility_mode = "none"; s.visibility_reason = "requested (--visibility none)"; break;
     case VisibilityMode::Rays: s.visibility_mode = "rays"; s.visibility_reason = "requested (--visibility rays)"; break;
+    case VisibilityMode::Exact: s.visibility_mode = "exact"; s.visibility_reason = "requested (--visibility exact)"; break;
     case VisibilityMode::Auto:
       if (scene_needs_no_visibility(scene, &reason)) { s.visibility_mode = "none"; s.visibility_reason = "auto: " + reason; }
       else { s.visibility_mode = "rays"; s.visibility_reason = "auto: " + reason; }
   }
-  if (s.visibility_mode == "rays") vis = std::make_unique<RayVisibility>(scene);
-  s.rays = vis ? opt.rays : 0;
+  if (s.visibility_mode != "none")
+    vis = std::make_unique<Visibility>(scene, s.visibility_mode == "exact" ? VisibilityMethod::Exact : VisibilityMethod::Rays);
+  s.rays = s.visibility_mode == "rays" ? opt.rays : 0;
   timer.lap("visibility_setup");
 
   FillOptions fill;
@@ -183,14 +204,21 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
   s.quadrature = opt.quadrature;
   s.matrix_storage = "dense double";
   s.matrix_bytes = double(s.patches) * s.patches * sizeof(double);
+  check_memory(r.mesh, opt, s);
   const FormFactorMatrix F = fill_form_factors(r.mesh, fill, s.fill);
+  // A convex enclosure (auto mode): the scene-wide test culled every pair's shaft at once.
+  if (!vis && opt.visibility == VisibilityMode::Auto) s.fill.pairs_culled = s.fill.pairs_evaluated;
+  s.checks = check_form_factors(r.mesh, F);
   timer.lap("form_factors");
 
   bool grey = true;
   for (const Material& m : scene.materials) grey = grey && m.is_grey();
   const ChannelMatrix direct = ChannelMatrix::Zero(s.patches, 3);  // no analytic lights yet
   s.tolerance = opt.solver.tolerance;
-  s.solver = solve_radiosity(F, r.emission, r.reflectance, direct, grey, opt.solver, r.radiosity);
+  SolverOptions solver = opt.solver;  // + the patch areas, for the symmetric (cg) formulation
+  solver.areas.resize(s.patches);
+  for (int i = 0; i < s.patches; ++i) solver.areas[i] = r.mesh.patches[i].area;
+  s.solver = solve_radiosity(F, r.emission, r.reflectance, direct, grey, solver, r.radiosity);
   if (!s.solver.converged) {
     std::ostringstream m;
     m << scene.source << ": the solver did not converge in " << s.solver.iterations << " sweeps (relative residual "
@@ -205,6 +233,10 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
   s.output_points = static_cast<int>(r.points.size());
   gather_at_points(scene, vis.get(), opt, r);
   timer.lap("vertex_gather");
+  // Never hand a NaN on to a result file: with finite, checked inputs this is a bug (exit 4).
+  if (!r.radiosity.allFinite() || !r.irradiance.allFinite() || !r.point_radiosity.allFinite() ||
+      !r.point_irradiance.allFinite())
+    throw std::logic_error(scene.source + ": the solution contains a non-finite value");
   return r;
 }
 

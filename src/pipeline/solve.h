@@ -15,21 +15,25 @@
 
 #include "formfactors/formfactors.h"
 #include "patching/patching.h"
+#include "pipeline/memory.h"
 #include "scene/scene.h"
 #include "solver/gauss_seidel.h"
 
 namespace photometria {
 
-enum class VisibilityMode { Auto, None, Rays };
+enum class VisibilityMode { Auto, None, Rays, Exact };
 
 struct SolveOptions {
   PatchingOptions patching;                  // patch size limits
   int quadrature = 1;                        // receiver rule order, 1 = centroid
   VisibilityMode visibility = VisibilityMode::Auto;
-  int rays = 16;                             // segments per pair (and per vertex–patch) in ray mode
+  int rays = 576;                            // rays per (receiver point, patch) in ray mode (fill and vertex gather)
   uint64_t seed = 1;                         // ray sampling seed
   SolverOptions solver;
   int threads = 0;                           // 0 = all cores
+  // Refuse (BadInput) before the form-factor fill when the estimated memory (pipeline/memory.h,
+  // the storage actually used) exceeds this many bytes; 0 = MemAvailable from /proc/meminfo.
+  double max_memory_bytes = 0.0;
   std::function<void(const std::string& stage, double fraction)> progress;  // optional
 };
 
@@ -46,7 +50,8 @@ struct SolveSummary {
   double min_patch_area = 0.0, max_patch_area = 0.0, total_area = 0.0;
   long long pairs_total = 0;  // N (N − 1)
   FillStats fill;
-  std::string visibility_mode;    // "none" or "rays"
+  FormFactorChecks checks;        // invariants of the filled matrix
+  std::string visibility_mode;    // "none", "rays" or "exact"
   std::string visibility_reason;  // why that mode was chosen
   int quadrature = 1;
   int rays = 0;
@@ -55,8 +60,12 @@ struct SolveSummary {
   int output_points = 0;
   long long vertex_pairs_evaluated = 0;
   long long vertex_rays_cast = 0;
+  long long vertex_pairs_tested = 0, vertex_pairs_culled = 0;  // shaft tests in the gather
   std::string matrix_storage;     // e.g. "dense double"
   double matrix_bytes = 0.0;
+  MemoryEstimate memory;          // estimated before the fill
+  double memory_limit_bytes = 0.0;
+  std::string memory_limit_source;  // "--max-memory" or "MemAvailable"
   int threads = 1;
   std::vector<std::pair<std::string, double>> stage_seconds;
   EnergyBalance energy;
@@ -78,8 +87,8 @@ struct SolveResult {
   SolveSummary summary;
 };
 
-// Throws photometria::Error: BadInput when there is nothing to solve (no emitter) or a material
-// is out of range, NotConverged when the solver hits its iteration cap.
+// Throws photometria::Error: BadInput when there is nothing to solve (no emitter), a material
+// is out of range or the memory estimate exceeds the limit (options.max_memory_bytes), NotConverged when the solver hits its iteration cap.
 SolveResult solve_scene(const Scene& scene, const SolveOptions& options);
 
 // Peak resident memory of this process so far, bytes.

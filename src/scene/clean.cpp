@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <set>
 
 #include "scene/loaders.h"
 
@@ -146,6 +147,24 @@ void clean_geometry(Scene& scene, const LoadOptions& options) {
   }
   scene.faces = std::move(cleaned);
   drop_unused_vertices(scene);
+}
+
+void drop_duplicate_faces(Scene& scene) {
+  // Key: the vertex cycle started at its smallest index, winding kept, so that a face and its
+  // rotations compare equal while a back-to-back twin (reverse winding) does not.
+  std::set<std::vector<int>> seen;
+  std::vector<Face> kept;
+  kept.reserve(scene.faces.size());
+  for (Face& f : scene.faces) {
+    std::vector<int> key = f.vertices;
+    std::rotate(key.begin(), std::min_element(key.begin(), key.end()), key.end());
+    if (!seen.insert(std::move(key)).second) {
+      ++scene.stats.duplicate_faces;
+      continue;
+    }
+    kept.push_back(std::move(f));
+  }
+  scene.faces = std::move(kept);
 }
 
 }  // namespace photometria::scene_detail

@@ -32,6 +32,14 @@ json parse_scene(const std::string& path, const std::string& text) {
     const size_t before = std::min(e.byte == 0 ? 0 : e.byte - 1, text.size());
     const long line = 1 + std::count(text.begin(), text.begin() + static_cast<long>(before), '\n');
     throw_bad_input(at(path, line) + ": " + parse_reason(e.what()));
+  } catch (const json::out_of_range& e) {
+    // "number overflow parsing '1e999'": a number too large for a double (it would be ±inf).
+    const std::string what = e.what();
+    const size_t q1 = what.find('\''), q2 = q1 == std::string::npos ? q1 : what.find('\'', q1 + 1);
+    const std::string number = q2 == std::string::npos ? std::string() : what.substr(q1 + 1, q2 - q1 - 1);
+    const size_t pos = number.empty() ? std::string::npos : text.find(number);
+    const long line = pos == std::string::npos ? 0 : 1 + std::count(text.begin(), text.begin() + static_cast<long>(pos), '\n');
+    throw_bad_input(at(path, line) + ": number " + in_quotes(number) + " is not a finite number (too large for a double)");
   }
 }
 
@@ -46,10 +54,22 @@ void check_keys(const std::string& path, const json& object, const std::string& 
   }
 }
 
+// The JSON text of a value for a message, shortened.
+std::string excerpt(const json& v) {
+  std::string text = v.dump();
+  return text.size() > 40 ? text.substr(0, 37) + "..." : text;
+}
+
+// A number that overflows a double (1e999) parses as ±inf: refused here, naming the key.
+Rgb finite(const std::string& path, const Rgb& c, const json& v, const std::string& where) {
+  if (!c.isFinite().all()) throw_bad_input(at(path) + ": " + where + " is not a finite number (" + excerpt(v) + ")");
+  return c;
+}
+
 Rgb colour(const std::string& path, const json& v, const std::string& where) {
-  if (v.is_number()) return Rgb::Constant(v.get<double>());
+  if (v.is_number()) return finite(path, Rgb::Constant(v.get<double>()), v, where);
   if (v.is_array() && v.size() == 3 && std::all_of(v.begin(), v.end(), [](const json& x) { return x.is_number(); }))
-    return Rgb(v[0].get<double>(), v[1].get<double>(), v[2].get<double>());
+    return finite(path, Rgb(v[0].get<double>(), v[1].get<double>(), v[2].get<double>()), v, where);
   std::string text = v.dump();
   if (text.size() > 40) text = text.substr(0, 37) + "...";
   throw_bad_input(at(path) + ": " + where + " must be a number or [r, g, b], got " + text);

@@ -82,6 +82,14 @@ std::vector<int> weld_points(const std::vector<Vec3>& points, const std::vector<
 // drops unused vertices.
 void clean_geometry(Scene& scene, const LoadOptions& options);
 
+// clean.cpp: drops faces equal to an earlier one (same vertex cycle, same winding), counting
+// them in stats.duplicate_faces. Runs after clean_geometry (on welded, split faces).
+void drop_duplicate_faces(Scene& scene);
+
+// orient.cpp: in every closed surface, flips the faces wound against the rest (the winding
+// covering the larger area wins) and counts them; flags an enclosure facing outward.
+void fix_orientation(Scene& scene, bool flip_inconsistent);
+
 // merge.cpp: appends one mesh file's scene (offsetting vertex and source-face indices).
 void append_scene(RawScene& into, RawScene&& part);
 

@@ -1,6 +1,8 @@
 // load_scene: pick the reader by extension, then clean the geometry and check the materials.
 #include "scene/scene.h"
 
+#include <algorithm>
+
 #include "scene/loaders.h"
 #include "util/error.h"
 
@@ -35,12 +37,34 @@ RawScene read_mesh_file(const std::string& path, const LoadOptions& options) {
 
 }  // namespace scene_detail
 
+std::vector<std::string> load_warnings(const LoadStats& s) {
+  std::vector<std::string> w;
+  auto count = [&](int n, const std::string& what) {
+    if (n > 0) w.push_back(std::to_string(n) + " " + what);
+  };
+  count(s.dropped_degenerate, "zero-area or degenerate face(s) dropped");
+  count(s.duplicate_faces, "duplicate face(s) dropped (same vertices and winding as an earlier face)");
+  count(s.split_nonplanar, "non-planar polygon(s) split into triangles");
+  count(s.missing_material_files, "material file(s) (mtllib) missing: their materials get the default values");
+  count(s.flipped_faces, "face(s) wound against the rest of their closed surface flipped");
+  if (s.enclosure_faces_outward)
+    w.push_back(std::string("the closed surface around the scene faces outward (inside-out export?)") +
+                (s.flipped_all ? " even after --flip-normals" : ": if it is a room, use --flip-normals"));
+  return w;
+}
+
 Scene load_scene(const std::string& path, const LoadOptions& options) {
   RawScene raw = lower_extension(path) == ".json" ? read_json_scene(path, options) : read_mesh_file(path, options);
   clean_geometry(raw.scene, options);
   if (raw.scene.faces.empty())
     throw_bad_input(at(path) + ": no face has a non-zero area (" + std::to_string(raw.scene.stats.input_faces) +
                     " faces read)");
+  drop_duplicate_faces(raw.scene);
+  if (options.flip_normals) {
+    for (Face& f : raw.scene.faces) std::reverse(f.vertices.begin(), f.vertices.end());
+    raw.scene.stats.flipped_all = true;
+  }
+  fix_orientation(raw.scene, options.fix_orientation);
   drop_unused_materials(raw);
   check_materials(raw);
   raw.scene.source = path;

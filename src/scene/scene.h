@@ -9,7 +9,15 @@
 //   - coincident vertices are welded (distance <= weld_tolerance × bounding-box diagonal),
 //   - zero-area faces are dropped and counted,
 //   - non-planar polygons, non-convex polygons and polygons with more than four vertices are
-//     split into triangles and counted; triangles and planar convex quads are kept as they are.
+//     split into triangles and counted; triangles and planar convex quads are kept as they are,
+//   - duplicate faces (the same vertices in the same cyclic order and winding, after welding)
+//     are dropped and counted; back-to-back pairs (reverse winding) are kept as a two-sided sheet,
+//   - within every closed surface (each edge shared by exactly two faces, connected through
+//     those edges), faces wound against the rest of the surface are flipped and counted: the
+//     orientation covering the larger area wins (orient.cpp),
+//   - a closed surface enclosing the whole scene whose faces all point out is reported
+//     (LoadStats::enclosure_faces_outward): LoadOptions::flip_normals (`--flip-normals`)
+//     reverses every face to fix such an export.
 // Bad input throws photometria::Error naming the file, the line (text formats) and the value.
 #pragma once
 
@@ -48,7 +56,15 @@ struct LoadStats {
   int split_nonplanar = 0;        // non-planar polygons split into triangles
   int split_polygons = 0;         // convex-planar n-gons (n > 4) or non-convex polygons triangulated
   int missing_material_files = 0; // mtllib files that could not be read (defaults used)
+  int duplicate_faces = 0;        // faces equal to an earlier one (same vertices and winding), dropped
+  int flipped_faces = 0;          // faces wound against the rest of their closed surface, flipped
+  bool enclosure_faces_outward = false;  // the closed surface around the scene faces out (see flip_normals)
+  bool flipped_all = false;       // LoadOptions::flip_normals was applied
 };
+
+// One line per counted warning ("3 duplicate faces dropped"), empty when loading changed nothing
+// worth telling. For the CLI to print on stderr.
+std::vector<std::string> load_warnings(const LoadStats& stats);
 
 struct Scene {
   std::string source;               // path it was loaded from
@@ -67,6 +83,8 @@ struct LoadOptions {
   Rgb default_emission = Rgb::Zero();            // for formats without materials, W/m²
   double weld_tolerance = 1e-9;                  // relative to the bounding-box diagonal
   double planarity_tolerance = 1e-6;             // max vertex distance from the face plane, relative to the face's diameter
+  bool flip_normals = false;                     // reverse the winding of every face (inside-out exports)
+  bool fix_orientation = true;                   // flip faces wound against their closed surface
 };
 
 // Loads and cleans a scene. Throws photometria::Error (file, line, value) on bad input; checks

@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -13,11 +14,16 @@ namespace photometria::scene_detail {
 
 bool is_readable_file(const std::string& path) {
   std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) return false;  // ifstream opens directories
+  // Regular files only: ifstream opens directories, and a FIFO or /dev/zero would never end.
+  if (!std::filesystem::is_regular_file(path, ec)) return false;
   return std::ifstream(path).good();
 }
 
 std::string read_file_text(const std::string& path) {
+  std::error_code ec;
+  const auto status = std::filesystem::status(path, ec);
+  if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status))
+    throw_io("cannot open '" + path + "': not a regular file");
   if (!is_readable_file(path)) throw_io("cannot open '" + path + "'");
   std::ifstream in(path, std::ios::binary);
   std::ostringstream text;
@@ -56,6 +62,12 @@ bool parse_number(std::string_view token, double& out) {
   if (token.size() > 1 && token[0] == '+' && token[1] != '-') token.remove_prefix(1);
   const char* end = token.data() + token.size();
   const auto [ptr, ec] = std::from_chars(token.data(), end, out);
+  if (ec == std::errc::result_out_of_range && ptr == end) {
+    // A well-formed number beyond the double range: what strtod gives, ±inf on overflow (left
+    // to the caller's finiteness check) or a (sub)normal or ±0 on underflow.
+    out = std::strtod(std::string(token).c_str(), nullptr);
+    return true;
+  }
   return ec == std::errc() && ptr == end && !token.empty();
 }
 

@@ -6,32 +6,19 @@
 // Converges for 0 <= ρ < 1 and row sums Σ_j F_ij <= 1 (the system matrix is strictly diagonally
 // dominant). Stops when the relative residual ‖E + ρ∘(F·B + H_direct) − B‖₂ / ‖B‖₂ <= tolerance;
 // the (cheap) sweep update norm decides when that residual is worth computing.
+//
+// In a closed room the error's slowest component is the near-constant one, which a sweep shrinks
+// only by about 1 − (1 − ρ)·e^ρ (measured in docs/performance.md "Solvers"): stiff scenes (ρ near 1)
+// need the other methods of solver.h. This header also brings in solver.h (SolverOptions,
+// SolverReport, solve_radiosity), which is where callers find the solve entry point.
 #pragma once
 
-#include <Eigen/Core>
-
-#include "formfactors/formfactors.h"
+#include "solver/channel.h"
+#include "solver/solver.h"
 
 namespace photometria {
 
-using ChannelMatrix = Eigen::Matrix<double, Eigen::Dynamic, 3>;  // N × 3 (RGB), W/m² or unitless
-
-struct SolverOptions {
-  double tolerance = 1e-8;     // relative residual to stop at
-  int max_iterations = 100000; // sweeps per channel before giving up
-};
-
-struct SolverReport {
-  int iterations = 0;       // largest number of sweeps over the channels solved
-  double residual = 0.0;    // largest final relative residual over the channels
-  int channels_solved = 0;  // 1 when every material is grey (channels 1, 2 copied), else 3
-  bool converged = false;
-};
-
-// Solves for B (N × 3). `grey` = all of E, ρ, H_direct identical across channels: solve one.
-// Throws photometria::Error(BadInput) if some ρ is outside [0, 1) or some E < 0.
-SolverReport solve_radiosity(const FormFactorMatrix& F, const ChannelMatrix& emission,
-                             const ChannelMatrix& reflectance, const ChannelMatrix& direct_irradiance,
-                             bool grey, const SolverOptions& options, ChannelMatrix& radiosity);
+// Solves one channel from the first guess B = E; B (N) is resized and overwritten.
+ChannelResult gauss_seidel_channel(const ChannelProblem& p, const SolverOptions& options, Eigen::VectorXd& B);
 
 }  // namespace photometria

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <sstream>
 #include <vector>
 
@@ -39,6 +40,15 @@ void latin_hypercube(int k, SplitMix64& rng, std::vector<std::pair<double, doubl
   for (int i = k - 1; i > 0; --i) std::swap(perm[i], perm[rng.next() % uint64_t(i + 1)]);
   out.resize(k);
   for (int i = 0; i < k; ++i) out[i] = {(i + rng.uniform()) / k, (perm[i] + rng.uniform()) / k};
+}
+
+// Jittered (stratified) samples: one in each cell of an m × m grid, k = m². An indicator with a
+// smooth boundary then has error O(k^(-3/4)) instead of O(k^(-1/2)) (Mitchell 1996, "Consequences
+// of stratified sampling in graphics").
+void jittered_grid(int m, SplitMix64& rng, std::vector<std::pair<double, double>>& out) {
+  out.resize(size_t(m) * m);
+  for (int a = 0; a < m; ++a)
+    for (int b = 0; b < m; ++b) out[size_t(a) * m + b] = {(a + rng.uniform()) / m, (b + rng.uniform()) / m};
 }
 
 // Uniform (area-preserving for triangles and parallelograms) map of the unit square to a patch.
@@ -99,6 +109,8 @@ RayVisibility::RayVisibility(const Scene& scene) : impl_(std::make_unique<Impl>(
   if (!impl_->device) throw Error(ErrorKind::Io, "embree: cannot create a device");
   impl_->scene = rtcNewScene(impl_->device);
   rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
+  // Watertight triangle tests: a segment through an edge shared by two faces cannot slip through.
+  rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);
   RTCGeometry geom = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
   auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
                                                          3 * sizeof(float), scene.vertices.size()));
@@ -168,20 +180,304 @@ double RayVisibility::patch_to_patch(const Vec3* r, int rn, const Vec3& r_normal
 }
 
 double RayVisibility::point_to_patch(const Vec3& p, const Vec3& normal, const Vec3* s, int sn,
-                                     const Vec3& s_normal, int rays, uint64_t stream) const {
+                                     const Vec3& s_normal, int rays, uint64_t stream, int* rays_used) const {
   SplitMix64 rng{stream};
   std::vector<std::pair<double, double>> b;
-  latin_hypercube(rays, rng, b);
-  double seen = 0.0, total = 0.0;
   const Vec3 x = p + 10 * offset_ * normal;
-  for (int k = 0; k < rays; ++k) {
-    const Vec3 y = map_to_patch(s, sn, b[k].first, b[k].second);
-    const double w = transfer_weight(p, normal, y, s_normal);
-    if (w == 0.0) continue;
-    total += w;
-    if (!blocked(x, y + 10 * offset_ * s_normal)) seen += w;
+  int used = 0;
+  auto estimate = [&](int k, bool& unanimous) {
+    const int m = static_cast<int>(std::lround(std::sqrt(double(k))));
+    if (m * m == k) jittered_grid(m, rng, b);
+    else latin_hypercube(k, rng, b);
+    double seen = 0.0, total = 0.0;
+    int hits = 0, misses = 0;
+    for (int q = 0; q < k; ++q) {
+      const Vec3 y = map_to_patch(s, sn, b[q].first, b[q].second);
+      const double w = transfer_weight(p, normal, y, s_normal);
+      if (w == 0.0) continue;
+      total += w;
+      ++used;
+      if (!blocked(x, y + 10 * offset_ * s_normal)) { seen += w; ++misses; }
+      else ++hits;
+    }
+    unanimous = hits == 0 || misses == 0;
+    return total > 0 ? seen / total : 1.0;
+  };
+  bool unanimous = false;
+  const double v = estimate(rays, unanimous);
+  if (rays_used) *rays_used = used;
+  return v;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Shaft culling (Haines & Wallace 1994).
+
+namespace {
+
+struct Plane {
+  Vec3 m;    // unit normal, pointing out of the shaft
+  double d;  // the plane is m·y = d; the shaft lies in m·y <= d
+};
+
+// The planes of the convex hull of A ∪ B (each a polygon or a point). A hull face of two convex
+// polygons contains either a whole polygon, or an edge of one and a vertex of the other, so
+// these candidates are complete; a candidate is kept when every point lies on one closed side.
+void hull_planes(const Vec3* a, int na, const Vec3* b, int nb, double tol, std::vector<Plane>& out) {
+  out.clear();
+  Vec3 pts[8];
+  int np = 0;
+  for (int k = 0; k < na; ++k) pts[np++] = a[k];
+  for (int k = 0; k < nb; ++k) pts[np++] = b[k];
+  auto try_plane = [&](Vec3 m, const Vec3& p0) {
+    const double len = m.norm();
+    if (!(len > 0.0)) return;
+    m /= len;
+    const double d = m.dot(p0);
+    bool below = true, above = true;
+    for (int k = 0; k < np; ++k) {
+      const double s = m.dot(pts[k]) - d;
+      below = below && s <= tol;
+      above = above && s >= -tol;
+    }
+    if (below) out.push_back({m, d});
+    else if (above) out.push_back({-m, -d});
+  };
+  auto edges_with_vertices = [&](const Vec3* p, int n, const Vec3* q, int nq) {
+    if (n < 2) return;
+    for (int e = 0; e < n; ++e) {
+      const Vec3& e0 = p[e];
+      const Vec3& e1 = p[(e + 1) % n];
+      for (int v = 0; v < nq; ++v) try_plane((e1 - e0).cross(q[v] - e0), e0);
+    }
+  };
+  edges_with_vertices(a, na, b, nb);
+  edges_with_vertices(b, nb, a, na);
+  if (na >= 3) try_plane(newell_vector(a, na), a[0]);
+  if (nb >= 3) try_plane(newell_vector(b, nb), b[0]);
+}
+
+}  // namespace
+
+ShaftCuller::ShaftCuller(const Scene& scene) {
+  tol_ = 1e-9 * std::max(bounding_diagonal(scene.vertices), 1e-30);
+  const int n = static_cast<int>(scene.faces.size());
+  faces_.reserve(n);
+  for (int f = 0; f < n; ++f) {
+    faces_.push_back(scene.face_polygon(f));
+    normals_.push_back(polygon_normal(faces_.back()));
+    Eigen::AlignedBox3d box;
+    for (const Vec3& v : faces_.back()) box.extend(v);
+    boxes_.push_back(box);
   }
-  return total > 0 ? seen / total : 1.0;
+  order_.resize(n);
+  std::iota(order_.begin(), order_.end(), 0);
+  if (n > 0) {
+    nodes_.reserve(2 * n);
+    build(0, n);
+  }
+}
+
+// Median split on the longest axis of the box centres; leaves hold up to 4 faces.
+int ShaftCuller::build(int first, int count) {
+  const int id = static_cast<int>(nodes_.size());
+  nodes_.emplace_back();
+  Eigen::AlignedBox3d box, centres;
+  for (int k = first; k < first + count; ++k) {
+    box.extend(boxes_[order_[k]]);
+    centres.extend(boxes_[order_[k]].center());
+  }
+  nodes_[id].box = box;
+  if (count <= 4) {
+    nodes_[id].first = first;
+    nodes_[id].count = count;
+    return id;
+  }
+  int axis = 0;
+  centres.sizes().maxCoeff(&axis);
+  const int half = count / 2;
+  std::nth_element(order_.begin() + first, order_.begin() + first + half, order_.begin() + first + count,
+                   [&](int x, int y) { return boxes_[x].center()[axis] < boxes_[y].center()[axis]; });
+  const int left = build(first, half);
+  const int right = build(first + half, count - half);
+  nodes_[id].left = left;
+  nodes_[id].right = right;
+  return id;
+}
+
+void ShaftCuller::occluders(const Vec3* a, int na, const Vec3* b, int nb, std::vector<int>& out) const {
+  out.clear();
+  if (nodes_.empty()) return;
+  Eigen::AlignedBox3d shaft_box;
+  for (int k = 0; k < na; ++k) shaft_box.extend(a[k]);
+  for (int k = 0; k < nb; ++k) shaft_box.extend(b[k]);
+  shaft_box.min().array() -= tol_;
+  shaft_box.max().array() += tol_;
+  thread_local std::vector<Plane> planes;
+  hull_planes(a, na, b, nb, tol_, planes);
+
+  auto face_misses_shaft = [&](int f) {
+    const Polygon& w = faces_[f];
+    // Every corner of A and B on one closed side of the face's plane: no open segment crosses it.
+    bool below = true, above = true;
+    for (int k = 0; k < na + nb; ++k) {
+      const double s = normals_[f].dot((k < na ? a[k] : b[k - na]) - w[0]);
+      below = below && s <= tol_;
+      above = above && s >= -tol_;
+    }
+    if (below || above) return true;
+    // The face wholly on the outer closed side of one hull plane.
+    for (const Plane& p : planes) {
+      bool outside = true;
+      for (const Vec3& v : w) outside = outside && p.m.dot(v) - p.d >= -tol_;
+      if (outside) return true;
+    }
+    return false;
+  };
+
+  int stack[128];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const Node& node = nodes_[stack[--top]];
+    if (!node.box.intersects(shaft_box)) continue;
+    if (node.left < 0) {
+      for (int k = node.first; k < node.first + node.count; ++k) {
+        const int f = order_[k];
+        if (boxes_[f].intersects(shaft_box) && !face_misses_shaft(f)) out.push_back(f);
+      }
+    } else {
+      stack[top++] = node.left;
+      stack[top++] = node.right;
+    }
+  }
+  std::sort(out.begin(), out.end());  // a fixed order: results do not depend on the traversal
+}
+
+// ---------------------------------------------------------------------------------------------
+// Exact visibility: clip the source against shadow volumes in 3-D (Nishita & Nakamae 1985).
+
+namespace {
+
+// Keeps the part of convex polygon `in` where s(y) = m·y − d has the sign `keep` (+1: s >= 0,
+// −1: s <= 0), given the values `s` at its vertices (Sutherland–Hodgman, one plane).
+void clip_keep(const Polygon& in, const std::vector<double>& s, int keep, Polygon& out) {
+  out.clear();
+  const size_t n = in.size();
+  for (size_t i = 0; i < n; ++i) {
+    const size_t j = (i + 1) % n;
+    const double si = keep * s[i], sj = keep * s[j];
+    if (si >= 0) out.push_back(in[i]);
+    if ((si > 0 && sj < 0) || (si < 0 && sj > 0)) out.push_back(in[i] + (si / (si - sj)) * (in[j] - in[i]));
+  }
+  if (out.size() < 3) out.clear();
+}
+
+}  // namespace
+
+double exact_visible_form_factor(const Receiver& receiver, const Vec3* source, int n,
+                                 const std::vector<Polygon>& faces, const std::vector<int>& which) {
+  const Vec3& x = receiver.point;
+  // Work relative to x: every wedge plane then passes through the origin.
+  Polygon src(n);
+  double scale = 0.0;
+  for (int k = 0; k < n; ++k) {
+    src[k] = source[k] - x;
+    scale = std::max(scale, src[k].norm());
+  }
+  std::vector<Polygon> pieces{src}, next;
+  std::vector<Plane> volume;  // here m·y >= d is inside the shadow volume
+  std::vector<double> s;
+  Polygon inside, outside, cur;
+  bool cut = false;
+  for (int f : which) {
+    const Polygon& w = faces[f];
+    const int wn = static_cast<int>(w.size());
+    double wscale = scale;
+    Polygon wr(wn);
+    Vec3 centre = Vec3::Zero();
+    for (int k = 0; k < wn; ++k) {
+      wr[k] = w[k] - x;
+      centre += wr[k] / wn;
+      wscale = std::max(wscale, wr[k].norm());
+    }
+    const double eps = 1e-12 * wscale;
+    const Vec3 nw = polygon_normal(w);
+    const double h = nw.dot(wr[0]);  // signed distance of W's plane from x along nw
+    if (std::abs(h) <= eps || nw.isZero()) continue;  // seen edge-on: blocks nothing
+    volume.clear();
+    // Beyond W's plane, on the side away from x.
+    volume.push_back({h > 0 ? nw : Vec3(-nw), std::abs(h)});
+    // Inside the cone from x through W: one wedge plane through x per edge, oriented to W.
+    for (int k = 0; k < wn; ++k) {
+      Vec3 m = wr[k].cross(wr[(k + 1) % wn]);
+      const double len = m.norm();
+      if (!(len > 0.0)) continue;
+      m /= len;
+      if (m.dot(centre) < 0) m = -m;
+      volume.push_back({m, 0.0});
+    }
+    // Subtract the volume from every piece: the part outside plane 1, then the part inside 1
+    // but outside 2, ... are visible; what lies inside every plane is in W's shadow.
+    next.clear();
+    for (const Polygon& piece : pieces) {
+      cur = piece;
+      bool shadowed = true;
+      for (const Plane& p : volume) {
+        s.resize(cur.size());
+        bool all_out = true, all_in = true;
+        for (size_t k = 0; k < cur.size(); ++k) {
+          s[k] = p.m.dot(cur[k]) - p.d;
+          all_out = all_out && s[k] <= eps;
+          all_in = all_in && s[k] >= -eps;
+        }
+        if (all_out) {  // on or outside this plane (a coplanar piece counts as outside): visible
+          next.push_back(cur);
+          shadowed = false;
+          break;
+        }
+        if (all_in) continue;
+        cut = true;
+        clip_keep(cur, s, -1, outside);
+        if (!outside.empty()) next.push_back(outside);
+        clip_keep(cur, s, +1, inside);
+        cur.swap(inside);
+        if (cur.empty()) { shadowed = false; break; }
+      }
+      if (shadowed) cut = true;
+    }
+    pieces.swap(next);
+    if (pieces.empty()) return 0.0;
+  }
+  if (!cut) return lambert_form_factor(receiver, source, n);
+  // Lambert's formula is additive over a partition of the source (an integral over directions).
+  const Receiver at_origin{Vec3::Zero(), receiver.normal, receiver.approach};
+  double f = 0.0;
+  for (const Polygon& piece : pieces) f += lambert_form_factor(at_origin, piece.data(), static_cast<int>(piece.size()));
+  return std::clamp(f, 0.0, 1.0);
+}
+
+// ---------------------------------------------------------------------------------------------
+
+Visibility::Visibility(const Scene& scene, VisibilityMethod method) : method_(method), culler_(scene) {
+  if (method == VisibilityMethod::Rays) rays_ = std::make_unique<RayVisibility>(scene);
+}
+
+double Visibility::point_to_patch(const Receiver& x, const Vec3* source, int n, const Vec3& source_normal,
+                                  double unoccluded, const std::vector<int>& occluders, int rays, uint64_t stream,
+                                  long long& rays_cast) const {
+  if (occluders.empty() || unoccluded <= 0.0) return unoccluded;
+  // The shaft of the point and the patch is narrower than the pair's: test it too.
+  thread_local std::vector<int> narrow;
+  culler_.occluders(&x.point, 1, source, n, narrow);
+  if (narrow.empty()) return unoccluded;
+  if (method_ == VisibilityMethod::Exact)
+    return std::min(unoccluded, exact_visible_form_factor(x, source, n, culler_.faces(), narrow));
+  // Start just inside the point's own surface when it sits on an edge or corner, so rays leave cleanly.
+  const Vec3 start = x.approach.isZero() ? x.point : Vec3(x.point + 10 * rays_->surface_offset() * x.approach);
+  int used = 0;
+  const double v = rays_->point_to_patch(start, x.normal, source, n, source_normal, rays, stream, &used);
+  rays_cast += used;
+  return unoccluded * v;
 }
 
 }  // namespace photometria

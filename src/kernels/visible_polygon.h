@@ -1,0 +1,34 @@
+// The part of a polygon a receiver point can see, in coordinates relative to the receiver: the
+// common first step of every exact point-to-polygon kernel (lambert, iwanicki, stark-vertex,
+// stark-image; see kernels.h).
+//
+// Conventions (DESIGN.md "Point queries", shared/refs/README.md):
+//  - one-sided: a receiver behind the polygon's plane (Newell normal pointing away) sees nothing;
+//  - only the part above the receiver's tangent plane counts: the polygon is clipped to the
+//    closed half-space N·x >= 0 (Sutherland–Hodgman; seed 000 sec. 1 assumes a clipped polygon);
+//  - a receiver in the polygon's plane sees zero solid angle, except on its boundary (an edge or
+//    a vertex) where the limit as p is approached along `Receiver::approach` is taken: a vertex
+//    at p is replaced by the direction −u (only directions from p matter to the kernels).
+#pragma once
+
+#include "kernels/lambert.h"
+
+namespace photometria {
+
+// Result of visible_polygon(). `a` holds the visible polygon's vertices relative to the receiver
+// point (a_i = v_i − p, metres; or unit directions for boundary limits), counter-clockwise seen
+// from the polygon's front, every a_i with N·a_i >= 0 up to rounding.
+struct VisiblePolygon {
+  Polygon a;
+  // True when `a` is the input polygon unchanged (a_i = v_i − p, same order, nothing clipped and
+  // no boundary limit taken): kernels may then form differences v_i − v_0 from the input
+  // coordinates, which keeps digits for a small polygon far from the receiver.
+  bool whole = false;
+};
+
+// Fills `out`; returns false when the receiver sees nothing (F = 0): fewer than 3 vertices, a
+// degenerate polygon, a receiver behind it, in its plane off its boundary, or everything below
+// the horizon. `polygon` has n vertices (see lambert.h for orientation).
+bool visible_polygon(const Receiver& receiver, const Vec3* polygon, int n, VisiblePolygon& out);
+
+}  // namespace photometria

@@ -1,0 +1,125 @@
+#include "pipeline/memory.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <vector>
+
+#include "formfactors/formfactors.h"
+#include "pipeline/solve.h"
+
+namespace photometria {
+namespace {
+
+constexpr long long kSamples = 16384;
+
+// Bytes per patch besides the matrix. Counted from the arrays solve_scene, the solver and the
+// .vtu writer allocate; output points are at most 4 per patch (one per corner when every corner
+// is split), which is what is assumed.
+double per_patch_bytes() {
+  const double rgb = 3 * sizeof(double);
+  const double patch = sizeof(Patch) + sizeof(Vec3);           // patch + about one shared point
+  const double channels = 6 * rgb;                             // emission, reflectance, radiosity, irradiance, direct, F·B
+  const double solver = 5 * sizeof(double) + sizeof(double);   // per-channel vectors + row sums
+  const double cell = sizeof(std::vector<int>) + 4 * sizeof(int);
+  const double point = sizeof(OutputPoint) + 2 * rgb            // point irradiance, radiosity
+                       + sizeof(Vec3) + 2 * rgb;                // the .vtu copy of them
+  const double vtu_cell = cell + 4 * sizeof(long long) + 4 * rgb + 3 * sizeof(double);
+  return patch + channels + solver + cell + 4 * point + vtu_cell;
+}
+
+}  // namespace
+
+MemoryEstimate estimate_memory(const PatchMesh& mesh, uint64_t seed) {
+  MemoryEstimate e;
+  const long long n = mesh.size();
+  e.patches = static_cast<int>(n);
+  e.pairs_total = n * (n - 1);
+  if (n >= 2) {
+    const double tol = plane_tolerance(mesh);
+    if (e.pairs_total <= kSamples) {
+      for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j)
+          if (i != j && !facing_away(mesh, i, j, tol)) ++e.nonzero_pairs;
+    } else {
+      std::mt19937_64 rng(seed);
+      std::uniform_int_distribution<int> pick(0, static_cast<int>(n) - 1);
+      long long hits = 0;
+      for (long long s = 0; s < kSamples; ++s) {
+        const int i = pick(rng);
+        int j = pick(rng);
+        while (j == i) j = pick(rng);
+        if (!facing_away(mesh, i, j, tol)) ++hits;
+      }
+      e.nonzero_pairs = std::llround(double(hits) / double(kSamples) * double(e.pairs_total));
+    }
+  }
+  e.per_patch_bytes = per_patch_bytes();
+  const double rest = e.per_patch_bytes * double(n);
+  e.dense_bytes = double(n) * double(n) * sizeof(double) + rest;
+  e.sparse_bytes = double(e.nonzero_pairs) * (sizeof(double) + sizeof(int32_t)) + double(n + 1) * sizeof(int64_t) + rest;
+  return e;
+}
+
+double available_memory_bytes() {
+  std::ifstream in("/proc/meminfo");
+  std::string key, unit;
+  double value = 0;
+  while (in >> key >> value) {
+    std::getline(in, unit);
+    if (key == "MemAvailable:") return value * 1024.0;  // reported in kB (kibibytes)
+  }
+  return 0.0;
+}
+
+std::string format_bytes(double bytes) {
+  static const char* units[] = {"bytes", "KiB", "MiB", "GiB", "TiB", "PiB"};
+  int u = 0;
+  while (bytes >= 1024.0 && u < 5) { bytes /= 1024.0; ++u; }
+  char buf[32];
+  if (u == 0) std::snprintf(buf, sizeof buf, "%.0f bytes", bytes);
+  else if (bytes < 10) std::snprintf(buf, sizeof buf, "%.1f %s", bytes, units[u]);
+  else std::snprintf(buf, sizeof buf, "%.0f %s", bytes, units[u]);
+  std::string s = buf;
+  // "1.0 GiB" reads better as "1 GiB".
+  const size_t dot0 = s.find(".0 ");
+  if (dot0 != std::string::npos) s.erase(dot0, 2);
+  return s;
+}
+
+std::string format_count(long long n) {
+  std::string digits = std::to_string(n < 0 ? -n : n), out;
+  for (size_t i = 0; i < digits.size(); ++i) {
+    if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
+    out += digits[i];
+  }
+  return (n < 0 ? "-" : "") + out;
+}
+
+bool parse_memory_size(const std::string& text, double& bytes) {
+  size_t used = 0;
+  double x = 0;
+  try {
+    x = std::stod(text, &used);
+  } catch (const std::exception&) {
+    return false;
+  }
+  std::string unit = text.substr(used);
+  std::transform(unit.begin(), unit.end(), unit.begin(), [](unsigned char c) { return std::toupper(c); });
+  double scale = 1;
+  if (!unit.empty() && unit != "B") {
+    const std::string prefixes = "KMGT";
+    const size_t p = prefixes.find(unit[0]);
+    const std::string rest = unit.substr(1);
+    if (p == std::string::npos || !(rest.empty() || rest == "B" || rest == "IB")) return false;
+    scale = std::pow(1024.0, double(p + 1));
+  }
+  bytes = x * scale;
+  return std::isfinite(bytes) && bytes > 0;
+}
+
+}  // namespace photometria

@@ -1,0 +1,327 @@
+#include "validation/suite.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iomanip>
+#include <map>
+#include <sstream>
+
+#include "formfactors/formfactors.h"
+#include "formfactors/pair_integration.h"
+#include "io/atomic_file.h"
+#include "kernels/lambert.h"
+#include "patching/patching.h"
+#include "solver/gauss_seidel.h"
+#include "util/error.h"
+#include "validation/scenes.h"
+
+namespace photometria::validation {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+Vec3 vec(const nlohmann::json& v) { return {v[0].get<double>(), v[1].get<double>(), v[2].get<double>()}; }
+Polygon polygon(const nlohmann::json& v) {
+  Polygon p;
+  for (const auto& x : v) p.push_back(vec(x));
+  return p;
+}
+SolverOptions gauss_seidel_to(double tolerance, int max_iterations) {
+  SolverOptions o;
+  o.tolerance = tolerance;
+  o.max_iterations = max_iterations;
+  return o;
+}
+
+double number(const nlohmann::json& v) { return std::stod(v.get<std::string>()); }
+
+const nlohmann::json& find_case(const nlohmann::json& refs, const std::string& id) {
+  for (const auto& c : refs.at("cases"))
+    if (c.at("id") == id) return c;
+  throw_bad_input("reference file: no case '" + id + "'");
+}
+
+// Accumulates relative errors (absolute where the reference is 0) of one row.
+struct ErrorStats {
+  double max = 0.0, sum2 = 0.0;
+  int n = 0;
+  void add(double got, double want) {
+    const double e = want != 0.0 ? std::abs((got - want) / want) : std::abs(got);
+    max = std::max(max, e);
+    sum2 += e * e;
+    ++n;
+  }
+  void into(ValidationRow& r) const {
+    r.max_rel_error = max;
+    r.rms_rel_error = n ? std::sqrt(sum2 / n) : 0.0;
+    r.cases = n;
+  }
+};
+
+class Suite {
+ public:
+  Suite(const nlohmann::json& refs, const ValidationOptions& o) : refs_(refs), opt_(o) {}
+
+  std::vector<ValidationRow> run() {
+    warm_up();
+    point_polygon();
+    patch_patch();
+    patch_patch_adaptive();
+    cube_floor_emitting();
+    white_furnace();
+    sphere_cap();
+    return rows_;
+  }
+
+ private:
+  const nlohmann::json& refs_;
+  const ValidationOptions& opt_;
+  std::vector<ValidationRow> rows_;
+
+  // Start the thread pool before the first timed row so it does not pay for it.
+  void warm_up() {
+    FillStats st;
+    fill_form_factors(subdivide(unit_cube_scene(0.5, 1.0, -1), {0.5, 0.0}), FillOptions{}, st);
+  }
+
+  void emit(ValidationRow r) {
+    if (opt_.on_row) opt_.on_row(r);
+    rows_.push_back(std::move(r));
+  }
+
+  // Lambert's closed form against every point_polygon case (exact: one setting).
+  void point_polygon() {
+    ErrorStats err;
+    const auto t0 = Clock::now();
+    for (const auto& c : refs_.at("cases")) {
+      if (c.at("kind") != "point_polygon") continue;
+      const auto& g = c.at("geometry");
+      const Receiver r{vec(g["receiver"]["point"]), vec(g["receiver"]["normal"]).normalized()};
+      err.add(lambert_form_factor(r, polygon(g["polygon"])), number(c["value"]));
+    }
+    ValidationRow row{"point-to-polygon (Lambert)", "closed form", 0, 1, 0, 0, 0, since(t0)};
+    err.into(row);
+    emit(row);
+  }
+
+  // F(1 -> 2) between two polygons meshed n × n with q × q receiver points, against Howell
+  // C-11 (parallel opposed rectangles) and C-14 (perpendicular, common edge).
+  void patch_patch() {
+    std::vector<const nlohmann::json*> cases;
+    for (const auto& c : refs_.at("cases"))
+      if (c.at("kind") == "patch_patch" && c.at("id").get<std::string>().rfind("C41", 0) != 0) cases.push_back(&c);
+    const std::vector<std::pair<int, int>> ladder =
+        opt_.quick ? std::vector<std::pair<int, int>>{{1, 1}, {2, 2}, {4, 4}}
+                   : std::vector<std::pair<int, int>>{{1, 1}, {1, 2}, {2, 2}, {2, 4}, {4, 4}, {8, 4}, {8, 8}, {16, 8}};
+    for (const auto& [n, q] : ladder) {
+      ErrorStats err;
+      int patches = 0;
+      const auto t0 = Clock::now();
+      for (const nlohmann::json* c : cases) {
+        const auto& g = c->at("geometry");
+        Polygon p1 = polygon(g["patch1"]["vertices"]), p2 = polygon(g["patch2"]["vertices"]);
+        // Orient each patch so that its front is the given normal.
+        if (polygon_normal(p1).dot(vec(g["patch1"]["normal"])) < 0) std::reverse(p1.begin(), p1.end());
+        if (polygon_normal(p2).dot(vec(g["patch2"]["normal"])) < 0) std::reverse(p2.begin(), p2.end());
+        const Scene s = two_polygon_scene(p1, p2);
+        double longest = 0;
+        for (const Polygon* p : {&p1, &p2})
+          for (size_t k = 0; k < p->size(); ++k) longest = std::max(longest, ((*p)[(k + 1) % p->size()] - (*p)[k]).norm());
+        const PatchMesh mesh = subdivide(s, {longest / n * (1 + 1e-9), 0.0});
+        patches += mesh.size();
+        FillOptions fo;
+        fo.quadrature = q;
+        FillStats st;
+        const FormFactorMatrix F = fill_form_factors(mesh, fo, st);
+        double a1 = 0, flux = 0;
+        for (int i = 0; i < mesh.size(); ++i) {
+          if (s.faces[mesh.patches[i].face].group != 0) continue;
+          a1 += mesh.patches[i].area;
+          for (int j = 0; j < mesh.size(); ++j)
+            if (s.faces[mesh.patches[j].face].group == 1) flux += mesh.patches[i].area * F(i, j);
+        }
+        err.add(flux / a1, number(c->at("value")));
+      }
+      std::ostringstream name;
+      name << "n=" << n << " q=" << q;
+      ValidationRow row{"patch-to-patch (Howell C-11, C-14)", name.str(), patches, q, 0, 0, 0, since(t0)};
+      err.into(row);
+      emit(row);
+    }
+  }
+
+  // The same cases, one patch each, with the per-pair rule at a ladder of tolerances.
+  void patch_patch_adaptive() {
+    for (double tol : opt_.quick ? std::vector<double>{1e-3, 1e-6} : std::vector<double>{1e-2, 1e-4, 1e-6, 1e-8, 1e-10}) {
+      ErrorStats err;
+      long long evaluations = 0;
+      const auto t0 = Clock::now();
+      for (const auto& c : refs_.at("cases")) {
+        if (c.at("kind") != "patch_patch" || c.at("id").get<std::string>().rfind("C41", 0) == 0) continue;
+        const auto& g = c.at("geometry");
+        Polygon p1 = polygon(g["patch1"]["vertices"]), p2 = polygon(g["patch2"]["vertices"]);
+        const Vec3 n1 = vec(g["patch1"]["normal"]), n2 = vec(g["patch2"]["normal"]);
+        if (polygon_normal(p1).dot(n1) < 0) std::reverse(p1.begin(), p1.end());
+        if (polygon_normal(p2).dot(n2) < 0) std::reverse(p2.begin(), p2.end());
+        const PairResult r = pair_form_factor(p1.data(), int(p1.size()), n1, p2.data(), int(p2.size()), n2, tol);
+        evaluations += r.evaluations;
+        err.add(r.form_factor, number(c.at("value")));
+      }
+      std::ostringstream name;
+      name << "tol=" << tol;
+      ValidationRow row{"patch-to-patch, per-pair rule (C-11, C-14)", name.str(), 0, 0, 0, 0, 0, since(t0)};
+      err.into(row);
+      emit(row);
+    }
+  }
+
+  // The closed cube, one patch per wall, floor emitting: exact 6 × 6 solution.
+  void cube_floor_emitting() {
+    const auto& c = find_case(refs_, "cube_floor_emitting_rho0.5");
+    for (int q : opt_.quick ? std::vector<int>{1, 4} : std::vector<int>{1, 2, 4, 8, 16}) {
+      const auto t0 = Clock::now();
+      const Scene s = unit_cube_scene(0.5, 1.0, 0);
+      const PatchMesh mesh = subdivide(s, {});
+      FillOptions fo;
+      fo.quadrature = q;
+      FillStats st;
+      const FormFactorMatrix F = fill_form_factors(mesh, fo, st);
+      ChannelMatrix E = ChannelMatrix::Zero(6, 3), R = ChannelMatrix::Constant(6, 3, 0.5), B;
+      E.row(0).setOnes();
+      solve_radiosity(F, E, R, ChannelMatrix::Zero(6, 3), true, gauss_seidel_to(1e-14, 10000), B);
+      ErrorStats err;
+      for (int i = 0; i < 6; ++i) err.add(B(i, 0), number(c["value"][i]));
+      ValidationRow row{"cube 6x6, floor emitting", "q=" + std::to_string(q), 6, q, 0, 0, 0, since(t0)};
+      err.into(row);
+      emit(row);
+    }
+  }
+
+  // White furnace: B = E / (1 − ρ) on every patch, any mesh (refs white_furnace_cube_rho*).
+  void white_furnace() {
+    for (double rho : {0.5, 0.9, 0.99, 0.999}) {
+      for (int n : opt_.quick ? std::vector<int>{4} : std::vector<int>{4, 8, 16}) {
+        const auto t0 = Clock::now();
+        const Scene s = unit_cube_scene(rho, 1.0, -1);
+        const PatchMesh mesh = subdivide(s, {1.0 / n * (1 + 1e-9), 0.0});
+        FillStats st;
+        const FormFactorMatrix F = fill_form_factors(mesh, FillOptions{}, st);
+        const int N = mesh.size();
+        ChannelMatrix B;
+        solve_radiosity(F, ChannelMatrix::Constant(N, 3, 1.0), ChannelMatrix::Constant(N, 3, rho),
+                        ChannelMatrix::Zero(N, 3), true, gauss_seidel_to(1e-12, 1000000), B);
+        ErrorStats err;
+        for (int i = 0; i < N; ++i) err.add(B(i, 0), 1.0 / (1.0 - rho));
+        std::ostringstream scene;
+        scene << "white furnace rho=" << rho;
+        ValidationRow row{scene.str(), "n=" + std::to_string(n), N, 1, 0, 0, 0, since(t0)};
+        err.into(row);
+        emit(row);
+      }
+    }
+  }
+
+  // Sphere enclosure with an emitting polar cap (z >= 0.5, a quarter of the area), ρ = 0.5:
+  // for a true sphere F_ij = A_j / A, so B_i = E_i + ρ/(1−ρ)·Ē with Ē = 1/4: 1.25 on the cap,
+  // 0.25 elsewhere (refs sphere_cap_emitting_rho0.5). Error falls as the tessellation refines.
+  void sphere_cap() {
+    const auto& c = find_case(refs_, "sphere_cap_emitting_rho0.5");
+    const double cap = number(c["value"][0]), rest = number(c["value"][1]);
+    for (int rings : opt_.quick ? std::vector<int>{6, 12} : std::vector<int>{6, 12, 24, 48}) {
+      const auto t0 = Clock::now();
+      const Scene s = sphere_cap_scene(rings, 0.5);
+      const PatchMesh mesh = subdivide(s, {});
+      FillStats st;
+      const FormFactorMatrix F = fill_form_factors(mesh, FillOptions{}, st);
+      const int N = mesh.size();
+      ChannelMatrix E = ChannelMatrix::Zero(N, 3), B;
+      for (int i = 0; i < N; ++i)
+        if (s.faces[mesh.patches[i].face].material == 1) E.row(i).setOnes();
+      solve_radiosity(F, E, ChannelMatrix::Constant(N, 3, 0.5), ChannelMatrix::Zero(N, 3), true, gauss_seidel_to(1e-12, 100000), B);
+      ErrorStats err;
+      for (int i = 0; i < N; ++i) err.add(B(i, 0), s.faces[mesh.patches[i].face].material == 1 ? cap : rest);
+      ValidationRow row{"sphere enclosure, emitting cap", std::to_string(rings) + " rings", N, 1, 0, 0, 0, since(t0)};
+      err.into(row);
+      emit(row);
+    }
+  }
+};
+
+}  // namespace
+
+std::vector<ValidationRow> run_validation(const nlohmann::json& refs, const ValidationOptions& options) {
+  return Suite(refs, options).run();
+}
+
+void write_validation_csv(const std::string& path, const std::vector<ValidationRow>& rows) {
+  AtomicOutput out(path);
+  {
+    std::ofstream f(out.temp_path());
+    f << "scene,setting,patches,quadrature,cases,max_rel_error,rms_rel_error,seconds\n" << std::setprecision(6);
+    for (const auto& r : rows)
+      f << '"' << r.scene << "\",\"" << r.setting << "\"," << r.patches << ',' << r.quadrature << ',' << r.cases << ','
+        << r.max_rel_error << ',' << r.rms_rel_error << ',' << r.seconds << '\n';
+    if (!f) throw_io("cannot write '" + path + "'");
+  }
+  out.commit();
+}
+
+void write_validation_markdown(const std::string& path, const std::vector<ValidationRow>& rows) {
+  AtomicOutput out(path);
+  {
+    std::ofstream f(out.temp_path());
+    f << "| scene | setting | patches | cases | max rel. error | RMS rel. error | seconds |\n"
+      << "|---|---|---:|---:|---:|---:|---:|\n";
+    for (const auto& r : rows) {
+      f << "| " << r.scene << " | " << r.setting << " | " << r.patches << " | " << r.cases << " | " << std::scientific
+        << std::setprecision(2) << r.max_rel_error << " | " << r.rms_rel_error << " | " << std::defaultfloat
+        << std::setprecision(3) << r.seconds << " |\n";
+    }
+    if (!f) throw_io("cannot write '" + path + "'");
+  }
+  out.commit();
+}
+
+void write_error_vs_time_plot(const std::string& csv_path, const std::string& png_path,
+                              const std::vector<ValidationRow>& rows) {
+  // One data block per scene (gnuplot "index"), errors floored at 1e-17 so exact zeros plot.
+  AtomicOutput data(png_path + ".dat");
+  std::vector<std::string> scenes;
+  {
+    std::ofstream f(data.temp_path());
+    std::map<std::string, std::vector<const ValidationRow*>> by_scene;
+    for (const auto& r : rows) {
+      if (!by_scene.count(r.scene)) scenes.push_back(r.scene);
+      by_scene[r.scene].push_back(&r);
+    }
+    for (const auto& s : scenes) {
+      for (const ValidationRow* r : by_scene[s])
+        f << std::max(r->seconds, 1e-7) << ' ' << std::max(r->max_rel_error, 1e-17) << '\n';
+      f << "\n\n";
+    }
+  }
+  AtomicOutput png(png_path);
+  std::ostringstream script;
+  script << "set terminal pngcairo size 1100,700 font ',10'\n"
+         << "set output '" << png.temp_path() << "'\n"
+         << "set logscale xy\nset format y '10^{%L}'\nset format x '10^{%L}'\n"
+         << "set xlabel 'wall time (s)'\nset ylabel 'max relative error'\n"
+         << "set title 'Photometria validation: error against run time (" << csv_path << ")'\n"
+         << "set key outside right\nset grid\n"
+         << "plot ";
+  for (size_t k = 0; k < scenes.size(); ++k)
+    script << (k ? ", " : "") << "'" << data.temp_path() << "' index " << k << " with linespoints lw 2 title '"
+           << scenes[k] << "'";
+  script << "\n";
+  FILE* gp = popen("gnuplot 2>&1", "w");
+  if (!gp) throw_io("cannot run gnuplot to write '" + png_path + "' (install gnuplot-nox)");
+  fputs(script.str().c_str(), gp);
+  const int status = pclose(gp);
+  if (status != 0) throw_io("gnuplot failed to write '" + png_path + "' (install gnuplot-nox)");
+  png.commit();
+}
+
+}  // namespace photometria::validation

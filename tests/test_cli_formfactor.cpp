@@ -1,0 +1,130 @@
+// End-to-end: `photometria formfactor` on the DESIGN.md example and the references.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "refs.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct CliRun {
+  int exit_code;
+  std::string out, err;
+};
+
+fs::path scratch() {
+  const fs::path dir = fs::temp_directory_path() / ("photometria_ff_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  return dir;
+}
+
+CliRun run(const std::string& args) {
+  const fs::path err_file = scratch() / "stderr.txt";
+  const std::string cmd = std::string(PHOTOMETRIA_BINARY) + " " + args + " 2>" + err_file.string();
+  CliRun r{0, {}, {}};
+  FILE* pipe = popen(cmd.c_str(), "r");
+  char buf[4096];
+  size_t n;
+  while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) r.out.append(buf, n);
+  const int status = pclose(pipe);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream e(err_file);
+  std::stringstream s;
+  s << e.rdbuf();
+  r.err = s.str();
+  return r;
+}
+
+std::string write(const std::string& name, const std::string& text) {
+  const fs::path p = scratch() / name;
+  std::ofstream(p) << text;
+  return p.string();
+}
+
+std::vector<nlohmann::json> lines(const std::string& out) {
+  std::vector<nlohmann::json> v;
+  std::stringstream s(out);
+  std::string line;
+  while (std::getline(s, line)) v.push_back(nlohmann::json::parse(line));
+  return v;
+}
+
+}  // namespace
+
+TEST(CliFormFactor, DesignExampleOneLinePerQuery) {
+  const std::string q = write("design.json", R"({"queries": [
+  {"id": "q1", "point": [0,0,0], "normal": [0,0,1], "polygon": [[-1,-1,1],[1,-1,1],[1,1,1],[-1,1,1]]},
+  {"id": "q2", "point": [0,0,0], "normal": [0,0,1], "sphere": {"center": [0,0,3], "radius": 1}},
+  {"id": "q3", "point": [0,0,0], "normal": [0,0,1], "distant": {"direction": [0,0,1], "angle_deg": 0.53, "intensity": 1000, "normalize": true}}
+]})");
+  const CliRun r = run("formfactor " + q);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto v = lines(r.out);
+  ASSERT_EQ(v.size(), 3u);
+  EXPECT_EQ(v[0]["id"], "q1");
+  // q1: the DESIGN.md square [-1,1]² at z = 1 — listed counter-clockwise seen from above, so its
+  // front faces +z, away from the receiver: one-sided, 0. q2: (r/d)² = 1/9.
+  EXPECT_EQ(v[0]["form_factor"].get<double>(), 0.0);
+  EXPECT_NEAR(v[1]["form_factor"].get<double>(), 1.0 / 9.0, 1e-16);
+  EXPECT_NEAR(v[2]["irradiance"].get<double>(), 1000.0, 1e-9);  // UsdLux normalize: intensity = illuminance
+  // 17 significant digits on the line.
+  EXPECT_NE(r.out.find("\"form_factor\": 0.11111111111111110"), std::string::npos) << r.out;
+}
+
+TEST(CliFormFactor, EveryKernelOnTheReferences) {
+  std::string text = "{\"queries\": [";
+  std::vector<long double> want;
+  for (const auto& c : refs::all()["cases"]) {
+    if (c["kind"] != "point_polygon") continue;
+    const auto& g = c["geometry"];
+    nlohmann::json q = {{"id", c["id"]}, {"point", g["receiver"]["point"]}, {"normal", g["receiver"]["normal"]},
+                        {"polygon", g["polygon"]}};
+    if (!want.empty()) text += ",";
+    text += q.dump();
+    want.push_back(refs::number(c["value"]));
+  }
+  const std::string q = write("refs.json", text + "]}");
+  for (const char* k : {"", " --kernel iwanicki", " --kernel lambert", " --kernel stark-vertex", " --kernel stark-image"}) {
+    const CliRun r = run("formfactor " + q + k);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto v = lines(r.out);
+    ASSERT_EQ(v.size(), want.size());
+    for (size_t i = 0; i < v.size(); ++i) {
+      const double f = v[i]["form_factor"].get<double>();
+      if (want[i] < 1e-3L) EXPECT_LE(std::abs(f - want[i]), 1e-15L) << v[i]["id"] << k;
+      else EXPECT_LE(std::abs(f / want[i] - 1), 1e-12L) << v[i]["id"] << k;
+    }
+  }
+  // An approximation prints its error against the exact value.
+  const CliRun r = run("formfactor " + q + " --kernel point-source");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto v = lines(r.out);
+  ASSERT_EQ(v.size(), want.size());
+  EXPECT_EQ(v[0]["kernel"], "point-source");
+  EXPECT_NEAR(v[0]["exact"].get<double>(), double(want[0]), 1e-15);
+  EXPECT_NEAR(v[0]["error"].get<double>(), v[0]["form_factor"].get<double>() - v[0]["exact"].get<double>(), 1e-16);
+}
+
+TEST(CliFormFactor, BadInputNamesTheQueryAndExitsOne) {
+  const std::string q = write("bad.json", R"({"queries": [
+  {"id": "fine", "point": [0,0,0], "normal": [0,0,1], "sphere": {"center": [0,0,3], "radius": 1}},
+  {"id": "lamp", "point": [0,0,0], "normal": [0,0,1], "sphere": {"center": [0,0,3], "radius": 0}}]})");
+  CliRun r = run("formfactor " + q);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("query 2 (id \"lamp\"): 'radius' must be > 0"), std::string::npos) << r.err;
+  EXPECT_TRUE(r.out.empty());
+  r = run("formfactor " + q + " --kernel acos");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("unknown kernel 'acos'"), std::string::npos) << r.err;
+  r = run("formfactor /no/such/queries.json");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(run("formfactor --help").exit_code, 0);
+}

@@ -1,0 +1,204 @@
+// Visibility in whole scenes: shaft culling, the invariants of the filled matrix, the Cornell box
+// in exact and ray modes, and coplanar neighbours.
+#include <gtest/gtest.h>
+
+#include <numeric>
+
+#include "formfactors/formfactors.h"
+#include "kernels/lambert.h"
+#include "pipeline/solve.h"
+#include "scene_builders.h"
+#include "visibility/visibility.h"
+#include "visibility_configs.h"
+
+using namespace photometria;
+
+namespace {
+
+Scene room_with_table() {
+  Scene room = builders::unit_cube(0.5, 1.0);
+  builders::add_box(room, Vec3(0.3, 0.3, 0.4), Vec3(0.7, 0.7, 0.45));
+  return room;
+}
+
+FormFactorMatrix fill(const PatchMesh& mesh, const Visibility* vis, FillStats& stats, int quadrature = 1) {
+  FillOptions opt;
+  opt.quadrature = quadrature;
+  opt.visibility = vis;
+  return fill_form_factors(mesh, opt, stats);
+}
+
+std::string mesh_path(const std::string& name) { return std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/" + name; }
+
+}  // namespace
+
+// Every pair the culler leaves out really is unoccluded: exact visibility against every face of
+// the scene gives the unoccluded factor. And pairs it keeps include all the occluded ones.
+TEST(VisibilityScenes, CulledShaftsAreReallyEmpty) {
+  const Scene room = room_with_table();
+  const PatchMesh mesh = subdivide(room, {0.34, 0.0});
+  const ShaftCuller culler(room);
+  std::vector<int> everything(culler.face_count()), occ;
+  std::iota(everything.begin(), everything.end(), 0);
+  const double tol = plane_tolerance(mesh);
+  int culled = 0, kept = 0, occluded_kept = 0;
+  Vec3 a[4], b[4];
+  for (int i = 0; i < mesh.size(); ++i)
+    for (int j = 0; j < mesh.size(); ++j) {
+      if (i == j || facing_away(mesh, i, j, tol)) continue;
+      mesh.polygon(i, a);
+      mesh.polygon(j, b);
+      culler.occluders(a, mesh.patches[i].corner_count, b, mesh.patches[j].corner_count, occ);
+      const Receiver x{mesh.patches[i].centroid, mesh.patches[i].normal};
+      const double f0 = lambert_form_factor(x, b, mesh.patches[j].corner_count);
+      const double fv = exact_visible_form_factor(x, b, mesh.patches[j].corner_count, culler.faces(), everything);
+      if (occ.empty()) {
+        ++culled;
+        EXPECT_NEAR(fv, f0, 1e-12) << i << " " << j;
+      } else {
+        ++kept;
+        occluded_kept += fv < f0 - 1e-12;
+        // The kept list is enough: clipping by it alone gives the same as by every face.
+        EXPECT_NEAR(exact_visible_form_factor(x, b, mesh.patches[j].corner_count, culler.faces(), occ), fv, 1e-13);
+      }
+    }
+  EXPECT_GT(culled, kept);  // most shafts of a room with one small table are empty
+  EXPECT_GT(occluded_kept, 0);
+}
+
+TEST(VisibilityScenes, ConvexRoomIsCulledEntirely) {
+  const Scene cube = builders::unit_cube();
+  const PatchMesh mesh = subdivide(cube, {0.2, 0.0});
+  for (VisibilityMethod m : {VisibilityMethod::Rays, VisibilityMethod::Exact}) {
+    const Visibility vis(cube, m);
+    FillStats stats;
+    fill(mesh, &vis, stats);
+    EXPECT_GT(stats.pairs_tested, 0);
+    EXPECT_EQ(stats.pairs_culled, stats.pairs_tested);
+    EXPECT_EQ(stats.rays_cast, 0);
+  }
+}
+
+// The invariants, pair by pair, in both modes: 0 <= F <= 1, F <= F unoccluded, rows <= 1 and = 1
+// in this closed room, reciprocity to the quadrature error (same as without occluders).
+TEST(VisibilityScenes, InvariantsHoldInAClosedRoomWithATable) {
+  const Scene room = room_with_table();
+  const PatchMesh mesh = subdivide(room, {0.25, 0.0});
+  FillStats s0;
+  const FormFactorMatrix F0 = fill(mesh, nullptr, s0, 3);
+  const FormFactorChecks c0 = check_form_factors(mesh, F0);
+  for (VisibilityMethod m : {VisibilityMethod::Exact, VisibilityMethod::Rays}) {
+    const Visibility vis(room, m);
+    FillStats stats;
+    const FormFactorMatrix F = fill(mesh, &vis, stats, 3);
+    const FormFactorChecks c = check_form_factors(mesh, F);
+    EXPECT_EQ(stats.above_unoccluded, 0);
+    EXPECT_GT(stats.pairs_occluded, 0);
+    EXPECT_GE(c.min_entry, 0.0);
+    EXPECT_LE(c.max_entry, 1.0);
+    EXPECT_TRUE((F.array() <= F0.array()).all());
+    EXPECT_LE(c.max_row_sum, 1.0 + 1e-12);
+    if (m == VisibilityMethod::Exact) {
+      EXPECT_LE(stats.max_point_row_sum, 1.0 + 1e-12);
+      // Closed: every point's hemisphere is tiled by the visible fragments. The patches under
+      // the table's legs do not exist here (a slab on no legs), so every row is 1.
+      EXPECT_GE(c.min_row_sum, 1.0 - 1e-12);
+      EXPECT_LE(c.reciprocity_error, 2.0 * c0.reciprocity_error + 1e-3);
+    } else {
+      EXPECT_GE(c.min_row_sum, 1.0 - 0.01);  // rays: within their error
+    }
+  }
+}
+
+// Cornell box: the blocks shadow the floor; exact and ray modes agree within the rays' error.
+TEST(VisibilityScenes, CornellBoxExactAndRaysAgree) {
+  const Scene box = load_scene(mesh_path("cornell_box.obj"));
+  const PatchMesh mesh = subdivide(box, {0.7, 0.0});
+  const Visibility exact(box, VisibilityMethod::Exact), rays(box, VisibilityMethod::Rays);
+  FillStats se, sr, s0;
+  const FormFactorMatrix Fe = fill(mesh, &exact, se), Fr = fill(mesh, &rays, sr), F0 = fill(mesh, nullptr, s0);
+  const int k = FillOptions{}.rays;
+  double worst = 0.0;
+  for (int i = 0; i < mesh.size(); ++i)
+    for (int j = 0; j < mesh.size(); ++j) {
+      // Stated error: a binomial bound on the visible fraction, σ <= 0.5/√K (jittered is better).
+      const double sigma = 0.5 / std::sqrt(double(k)) * F0(i, j);
+      if (sigma > 0) worst = std::max(worst, std::abs(Fr(i, j) - Fe(i, j)) / sigma);
+      if (sigma > 0 && std::abs(Fr(i, j) - Fe(i, j)) / sigma > 5)
+        std::printf("pair %d (face %d %s) -> %d (face %d %s): F0 %.6g exact %.6g rays %.6g\n", i, mesh.patches[i].face,
+                    box.materials[box.faces[mesh.patches[i].face].material].name.c_str(), j, mesh.patches[j].face,
+                    box.materials[box.faces[mesh.patches[j].face].material].name.c_str(), F0(i, j), Fe(i, j), Fr(i, j));
+    }
+  EXPECT_LT(worst, 5.0);
+  EXPECT_GT(se.pairs_occluded, 0);
+  EXPECT_GT(se.pairs_culled, 0);
+  EXPECT_LT(se.pairs_culled, se.pairs_tested);
+  // Floor patches under a block see none of the light; the radiosity solutions agree.
+  int light = -1;
+  for (int i = 0; i < mesh.size(); ++i)
+    if (box.materials[box.faces[mesh.patches[i].face].material].name == "light") light = i;
+  ASSERT_GE(light, 0);
+  int dark = 0;
+  for (int i = 0; i < mesh.size(); ++i) dark += F0(i, light) > 0 && Fe(i, light) == 0.0;
+  EXPECT_GT(dark, 0);
+  const FormFactorChecks ce = check_form_factors(mesh, Fe);
+  EXPECT_LE(ce.max_row_sum, 1.0 + 1e-12);
+  EXPECT_LE(check_form_factors(mesh, Fr).max_row_sum, 1.0 + 1e-12);
+}
+
+TEST(VisibilityScenes, CornellBoxEnergyBalanceClosesInExactMode) {
+  const Scene box = load_scene(mesh_path("cornell_box.obj"));
+  SolveOptions opt;
+  opt.patching.max_edge = 0.5;
+  opt.quadrature = 2;
+  opt.visibility = VisibilityMode::Exact;
+  opt.solver.tolerance = 1e-12;
+  const SolveResult r = solve_scene(box, opt);
+  EXPECT_EQ(r.summary.visibility_mode, "exact");
+  EXPECT_EQ(r.summary.fill.above_unoccluded, 0);
+  EXPECT_LE(r.summary.checks.max_row_sum, 1.0 + 1e-12);
+  EXPECT_LT(r.summary.energy.relative_imbalance, 0.05);
+  EXPECT_GT(r.summary.vertex_pairs_culled, 0);
+}
+
+// Two coplanar patches sharing an edge see each other with F = 0, and a wall made of two coplanar
+// faces meeting at an edge lets nothing through the seam, in either mode.
+TEST(VisibilityScenes, CoplanarNeighboursAndSeamsDoNotLeak) {
+  using vis_configs::Polygon;
+  // A unit room split at x = 0.5 by a two-sided wall of two faces sharing the edge y = 0.5.
+  std::vector<Polygon> faces = {
+      vis_configs::rect_poly(0, 1, 0, 1, 0, false),        // floor, facing up
+      vis_configs::rect_poly(0, 1, 0, 1, 1),               // ceiling, facing down
+      vis_configs::wall_x(0.5, 0, 0.5, 0, 1),              // the wall, lower half in y
+      vis_configs::wall_x(0.5, 0.5, 1, 0, 1),              // upper half: coplanar, adjacent
+  };
+  const Scene scene = vis_configs::scene_of(faces);
+  const PatchMesh mesh = subdivide(scene, {0.25, 0.0});
+  for (VisibilityMethod m : {VisibilityMethod::Exact, VisibilityMethod::Rays}) {
+    const Visibility vis(scene, m);
+    FillStats stats;
+    const FormFactorMatrix F = fill(mesh, &vis, stats);
+    for (int i = 0; i < mesh.size(); ++i)
+      for (int j = 0; j < mesh.size(); ++j) {
+        const Vec3 ci = mesh.patches[i].centroid, cj = mesh.patches[j].centroid;
+        const bool wall_i = mesh.patches[i].face >= 2, wall_j = mesh.patches[j].face >= 2;
+        if (wall_i && wall_j) {
+          EXPECT_EQ(F(i, j), 0.0);  // coplanar wall patches
+        }
+        if (!wall_i && !wall_j && (ci.x() - 0.5) * (cj.x() - 0.5) < 0) {
+          EXPECT_EQ(F(i, j), 0.0) << i << " " << j;
+        }
+      }
+    // A floor point level with the seam (y = 0.5): segments to the ceiling beyond the wall aim
+    // straight at the seam line; none gets through.
+    const Receiver x{Vec3(0.3, 0.5, 0), Vec3::UnitZ()};
+    const Polygon beyond = vis_configs::rect_poly(0.5, 1, 0.25, 0.75, 1);
+    std::vector<int> occ;
+    vis.culler().occluders(&x.point, 1, beyond.data(), 4, occ);
+    ASSERT_FALSE(occ.empty());
+    long long cast = 0;
+    const double f0 = lambert_form_factor(x, beyond);
+    EXPECT_GT(f0, 0.0);
+    EXPECT_EQ(vis.point_to_patch(x, beyond.data(), 4, -Vec3::UnitZ(), f0, occ, 4096, 7, cast), 0.0);
+  }
+}
