@@ -45,6 +45,7 @@ struct SolveArgs {
   std::string scene, output;
   std::optional<double> max_edge, max_area, tolerance;
   std::optional<int> quadrature, rays, max_iterations;
+  std::optional<double> accuracy;
   std::optional<std::string> visibility;
   std::optional<std::string> solver;
   std::optional<std::string> max_memory;
@@ -96,6 +97,8 @@ int run_solve(const SolveArgs& a) {
   opt.patching.max_edge = setting(a.max_edge, st, "max_edge", bounding_diagonal(scene) / 16.0);
   opt.patching.max_area = setting(a.max_area, st, "max_area", 0.0);
   opt.quadrature = setting(a.quadrature, st, "quadrature", 1);
+  opt.accuracy = setting(a.accuracy, st, "accuracy", 0.0);
+  if (opt.accuracy < 0 || opt.accuracy >= 1) pm::throw_bad_input("--accuracy must be in [0, 1)");
   opt.rays = setting(a.rays, st, "rays", 576);
   opt.solver.tolerance = setting(a.tolerance, st, "tolerance", 1e-8);
   opt.solver.max_iterations = setting(a.max_iterations, st, "max_iterations", 100000);
@@ -148,6 +151,9 @@ Command add_solve_command(CLI::App& app) {
   solve->add_option("--max-edge", s.max_edge, "Longest patch edge, metres (default: bounding diagonal / 16)");
   solve->add_option("--max-area", s.max_area, "Largest patch area, m² (default: no limit)");
   solve->add_option("--quadrature", s.quadrature, "Receiver rule: 1 = centroid, n = n×n Gauss points (default 1)");
+  solve->add_option("--accuracy", s.accuracy,
+                    "Relative accuracy of patch-to-patch factors: rule chosen per pair (overrides --quadrature "
+                    "for pairs nothing can block; default 0 = off)");
   solve->add_option("--visibility", s.visibility, "auto | none | rays | exact (default auto)");
   solve->add_option("--rays", s.rays, "Rays per receiver point and patch for --visibility rays (default 576 = 24²)");
   solve->add_option("--seed", s.seed, "Ray sampling seed (default 1)");

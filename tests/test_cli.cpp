@@ -63,7 +63,7 @@ TEST(Cli, SolvesTheCornellBoxIntoAVtuWithEveryArray) {
   const CliRun r = run("solve " + mesh("cornell_box.obj") + " -o " + out + " --json --threads 2");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto summary = nlohmann::json::parse(r.out);
-  EXPECT_EQ(summary["visibility"]["mode"], "rays");  // the blocks can occlude
+  EXPECT_EQ(summary["visibility"]["mode"], "exact");  // the blocks can occlude; small scene: exact
   EXPECT_EQ(summary["solver"]["channels"], 3);
   EXPECT_GT(summary["pairs"]["skipped_backfacing"].get<long long>(), 0);
   const VtuGrid g = photometria::read_vtu(out);
@@ -187,4 +187,26 @@ TEST(Cli, NothingToSolveIsABadInput) {
   EXPECT_NE(r.err.find("nothing to solve"), std::string::npos) << r.err;
   const CliRun lit = run("solve " + (dir / "dark.off").string() + " -o " + (dir / "dark.vtu").string() + " --emission 2");
   EXPECT_EQ(lit.exit_code, 0) << lit.err;
+}
+
+// --accuracy: the per-pair rule reaches the exact 6 × 6 solution of the closed cube with one
+// patch per wall and only the floor emitting (refs cube_floor_emitting_rho0.5).
+TEST(Cli, AccuracyOptionReachesTheExactCubeSolution) {
+  const fs::path dir = scratch();
+  std::ofstream(dir / "cube.mtl") << "newmtl wall\nKd 0.5 0.5 0.5\nnewmtl floor\nKd 0.5 0.5 0.5\nKe 1 1 1\n";
+  std::ofstream(dir / "cube.obj") << "mtllib cube.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+                                  << "usemtl floor\nf 1 2 3 4\nusemtl wall\nf 5 8 7 6\nf 1 5 6 2\nf 2 6 7 3\nf 3 7 8 4\nf 4 8 5 1\n";
+  const std::string out = (dir / "cube.vtu").string();
+  const CliRun r = run("solve " + (dir / "cube.obj").string() + " -o " + out +
+                       " --max-edge 2 --accuracy 1e-8 --tolerance 1e-13 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto s = nlohmann::json::parse(r.out);
+  EXPECT_EQ(s["patches"], 6);
+  EXPECT_EQ(s["pair_rules"]["adaptive"].get<int>() + s["pair_rules"]["gauss"].get<int>(), 30);
+  const VtuGrid g = photometria::read_vtu(out);
+  const auto& B = array(g.cell_arrays, "radiosity").values;
+  const std::vector<double> want = {1.0909090981076954743, 0.18174582610778848093, 0.18183626894612901119};
+  EXPECT_NEAR(B[0], want[0], 1e-8 * want[0]);
+  EXPECT_NEAR(B[3], want[1], 1e-8 * want[1]);
+  for (int wall = 2; wall < 6; ++wall) EXPECT_NEAR(B[3 * wall], want[2], 1e-8 * want[2]);
 }

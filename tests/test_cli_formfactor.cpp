@@ -70,9 +70,10 @@ TEST(CliFormFactor, DesignExampleOneLinePerQuery) {
   const auto v = lines(r.out);
   ASSERT_EQ(v.size(), 3u);
   EXPECT_EQ(v[0]["id"], "q1");
-  // q1: the DESIGN.md square [-1,1]² at z = 1 — listed counter-clockwise seen from above, so its
-  // front faces +z, away from the receiver: one-sided, 0. q2: (r/d)² = 1/9.
-  EXPECT_EQ(v[0]["form_factor"].get<double>(), 0.0);
+  // q1: the DESIGN.md square [-1,1]² at z = 1 without a front_normal emits towards the receiver
+  // in either vertex order: 4 × Howell B-3 with X = Y = 1... for the half-width 1 at c = 1:
+  // 4 × B-3(X = 1, Y = 1) = 4 × 0.138531605994893 = 0.554126423979572. q2: (r/d)² = 1/9.
+  EXPECT_NEAR(v[0]["form_factor"].get<double>(), 4 * 0.13853160599489299678, 1e-15);
   EXPECT_NEAR(v[1]["form_factor"].get<double>(), 1.0 / 9.0, 1e-16);
   EXPECT_NEAR(v[2]["irradiance"].get<double>(), 1000.0, 1e-9);  // UsdLux normalize: intensity = illuminance
   // 17 significant digits on the line.
@@ -127,4 +128,22 @@ TEST(CliFormFactor, BadInputNamesTheQueryAndExitsOne) {
   r = run("formfactor /no/such/queries.json");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_EQ(run("formfactor --help").exit_code, 0);
+}
+
+TEST(CliFormFactor, EitherOrderWithoutFrontNormalOneSidedWithIt) {
+  const std::string q = write("sides.json", R"({"queries": [
+  {"id": "ccw", "point": [0,0,0], "normal": [0,0,1], "polygon": [[0,1,1],[1,1,1],[1,0,1],[0,0,1]]},
+  {"id": "cw", "point": [0,0,0], "normal": [0,0,1], "polygon": [[0,0,1],[1,0,1],[1,1,1],[0,1,1]]},
+  {"id": "front", "point": [0,0,0], "normal": [0,0,1], "front_normal": [0,0,-1], "polygon": [[0,0,1],[1,0,1],[1,1,1],[0,1,1]]},
+  {"id": "back", "point": [0,0,0], "normal": [0,0,1], "front_normal": [0,0,1], "polygon": [[0,1,1],[1,1,1],[1,0,1],[0,0,1]]}
+]})");
+  const CliRun r = run("formfactor " + q);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto v = lines(r.out);
+  ASSERT_EQ(v.size(), 4u);
+  const double b3 = 0.13853160599489299678;  // refs pp_B3_unit_square_corner
+  EXPECT_NEAR(v[0]["form_factor"].get<double>(), b3, 1e-15);
+  EXPECT_NEAR(v[1]["form_factor"].get<double>(), b3, 1e-15);
+  EXPECT_NEAR(v[2]["form_factor"].get<double>(), b3, 1e-15);
+  EXPECT_EQ(v[3]["form_factor"].get<double>(), 0.0);  // seen from its back
 }

@@ -66,6 +66,38 @@ TEST(VisibilityScenes, CulledShaftsAreReallyEmpty) {
   EXPECT_GT(occluded_kept, 0);
 }
 
+// The same on a scene with a deep face tree: 6 × 6 small boxes on the floor (222 faces). The
+// candidates from the AABB tree are enough for exact clipping to match clipping by every face.
+TEST(VisibilityScenes, FaceTreeFindsEveryOccluderInABusyRoom) {
+  Scene room = builders::unit_cube(0.5, 1.0);
+  for (int a = 0; a < 6; ++a)
+    for (int b = 0; b < 6; ++b)
+      builders::add_box(room, Vec3(0.05 + a / 6.5, 0.05 + b / 6.5, 0.0), Vec3(0.12 + a / 6.5, 0.12 + b / 6.5, 0.1 + 0.05 * ((a + b) % 3)));
+  const PatchMesh mesh = subdivide(room, {0.34, 0.0});
+  const ShaftCuller culler(room);
+  ASSERT_EQ(culler.face_count(), 222);
+  std::vector<int> everything(culler.face_count()), occ;
+  std::iota(everything.begin(), everything.end(), 0);
+  const double tol = plane_tolerance(mesh);
+  int checked = 0, culled = 0;
+  Vec3 a[4], b[4];
+  for (int i = 0; i < mesh.size(); i += 3)
+    for (int j = 1; j < mesh.size(); j += 7) {
+      if (i == j || facing_away(mesh, i, j, tol)) continue;
+      mesh.polygon(i, a);
+      mesh.polygon(j, b);
+      culler.occluders(a, mesh.patches[i].corner_count, b, mesh.patches[j].corner_count, occ);
+      EXPECT_LT(occ.size(), everything.size());
+      const Receiver x{mesh.patches[i].centroid, mesh.patches[i].normal};
+      const double fv = exact_visible_form_factor(x, b, mesh.patches[j].corner_count, culler.faces(), everything);
+      EXPECT_NEAR(exact_visible_form_factor(x, b, mesh.patches[j].corner_count, culler.faces(), occ), fv, 1e-13) << i << " " << j;
+      ++checked;
+      culled += occ.empty();
+    }
+  EXPECT_GT(checked, 200);
+  EXPECT_GT(culled, 0);
+}
+
 TEST(VisibilityScenes, ConvexRoomIsCulledEntirely) {
   const Scene cube = builders::unit_cube();
   const PatchMesh mesh = subdivide(cube, {0.2, 0.0});

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 
+#include "formfactors/pair_integration.h"
 #include "formfactors/quadrature.h"
 #include "kernels/lambert.h"
 
@@ -36,10 +37,14 @@ FormFactorMatrix fill_form_factors(const PatchMesh& mesh, const FillOptions& opt
   const bool rays_mode = vis && vis->method() == VisibilityMethod::Rays;
   std::atomic<int> rows_done{0};
   long long evaluated = 0, backfacing = 0, tested = 0, culled = 0, occluded = 0, rays = 0, above = 0, rescaled = 0;
+  long long fixed_rule = 0, gauss = 0, adaptive = 0, kernels = 0;
+  // The per-pair rule integrates the unoccluded kernel; it applies when nothing can block.
+  const bool per_pair = options.tolerance > 0.0 && !vis;
   double max_point_sum = 0.0;
 
 #pragma omp parallel for schedule(dynamic, 4) \
-    reduction(+ : evaluated, backfacing, tested, culled, occluded, rays, above, rescaled) reduction(max : max_point_sum)
+    reduction(+ : evaluated, backfacing, tested, culled, occluded, rays, above, rescaled, fixed_rule, gauss, adaptive, kernels) \
+    reduction(max : max_point_sum)
   for (int i = 0; i < n; ++i) {
     Vec3 ri[4], sj[4];
     mesh.polygon(i, ri);
@@ -56,6 +61,19 @@ FormFactorMatrix fill_form_factors(const PatchMesh& mesh, const FillOptions& opt
       if (j == i || facing_away(mesh, i, j, tol)) { backfacing += (j != i); continue; }
       const Patch& pj = mesh.patches[j];
       mesh.polygon(j, sj);
+      if (per_pair) {
+        const PairResult r = pair_form_factor(ri, pi.corner_count, pi.normal, sj, pj.corner_count, pj.normal,
+                                              options.tolerance);
+        ++evaluated;
+        kernels += r.evaluations;
+        gauss += r.rule == PairRule::Gauss;
+        adaptive += r.rule == PairRule::Adaptive;
+        F(i, j) = r.form_factor;
+        point_sum[0] += r.form_factor;  // the row sum stands in for the per-point check
+        continue;
+      }
+      ++fixed_rule;
+      kernels += nq;
       double f0 = 0.0;
       for (int q = 0; q < nq; ++q) {
         // A receiver point in P_j's plane sees P_j edge-on. Lambert's kernel returns its limit
@@ -119,6 +137,10 @@ FormFactorMatrix fill_form_factors(const PatchMesh& mesh, const FillOptions& opt
   stats.pairs_culled += culled;
   stats.pairs_occluded += occluded;
   stats.rays_cast += rays;
+  stats.pairs_fixed_rule += fixed_rule;
+  stats.pairs_gauss += gauss;
+  stats.pairs_adaptive += adaptive;
+  stats.kernel_evaluations += kernels;
   stats.above_unoccluded += above;
   stats.max_point_row_sum = std::max(stats.max_point_row_sum, max_point_sum);
   stats.points_rescaled += rescaled;

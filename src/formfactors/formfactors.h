@@ -30,6 +30,9 @@ using FormFactorMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, E
 
 struct FillOptions {
   int quadrature = 1;                        // receiver rule order (1 = centroid)
+  double tolerance = 0.0;                    // > 0: per-pair rule to this relative accuracy
+                                             // (formfactors/pair_integration.h) for pairs no
+                                             // face can block; 0: the fixed `quadrature` rule
   const Visibility* visibility = nullptr;    // null: no occlusion test (every pair unoccluded)
   int rays = 576;                            // rays per (receiver point, source patch) in ray mode
   uint64_t seed = 1;                         // ray sampling seed (results repeat for a seed)
@@ -46,6 +49,10 @@ struct FillStats {
   long long above_unoccluded = 0;  // pairs with F_ij > F_ij unoccluded (must stay 0)
   double max_point_row_sum = 0.0;  // largest Σ_j F_vis(x_q -> P_j) over receiver points, before scaling
   long long points_rescaled = 0;   // receiver points whose ray-estimated sum exceeded 1 and was scaled
+  long long pairs_fixed_rule = 0;  // pairs integrated with the fixed `quadrature` rule
+  long long pairs_gauss = 0;       // per-pair rule: far pairs, Gauss order from the distance ratio
+  long long pairs_adaptive = 0;    // per-pair rule: near or touching pairs, adaptive bisection
+  long long kernel_evaluations = 0;
 };
 
 // The invariants of a filled matrix (checked in tests and reported in the summary).

@@ -1,5 +1,6 @@
 #include "io/queries.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -70,7 +71,7 @@ PointQuery parse_one(const json& j, size_t index, const std::string& file) {
     fail(where, "'id' must be a non-empty string");
   q.id = j["id"].get<std::string>();
   where += " (id " + json_string(q.id) + ")";
-  check_keys(j, where, {"id", "point", "normal", "polygon", "sphere", "distant"});
+  check_keys(j, where, {"id", "point", "normal", "polygon", "front_normal", "sphere", "distant"});
   q.point = read_vec3(require(j, "point", where), "point", where);
   q.normal = read_unit(require(j, "normal", where), "normal", where);
   const int kinds = int(j.contains("polygon")) + int(j.contains("sphere")) + int(j.contains("distant"));
@@ -80,6 +81,14 @@ PointQuery parse_one(const json& j, size_t index, const std::string& file) {
     const json& p = j["polygon"];
     if (!p.is_array() || p.size() < 3) fail(where, "'polygon' must be an array of at least 3 vertices, got " + p.dump());
     for (size_t k = 0; k < p.size(); ++k) q.polygon.push_back(read_vec3(p[k], "polygon[" + std::to_string(k) + "]", where));
+    // Which side emits: the optional front_normal, else the side the receiver is on, so that
+    // either vertex order gives the same F (shared/refs/README.md "Conventions").
+    const Vec3 winding = newell_vector(q.polygon);
+    const Vec3 front = j.contains("front_normal") ? read_unit(j["front_normal"], "front_normal", where)
+                                                  : Vec3(q.point - polygon_centroid(q.polygon));
+    if (winding.dot(front) < 0.0) std::reverse(q.polygon.begin(), q.polygon.end());
+  } else if (j.contains("front_normal")) {
+    fail(where, "'front_normal' belongs to a polygon query");
   } else if (j.contains("sphere")) {
     q.kind = PointQuery::Kind::Sphere;
     const json& s = j["sphere"];

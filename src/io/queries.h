@@ -8,6 +8,11 @@
 // "intensity" (number) in a sphere or distant object and "normalize" (bool, default false) in a
 // distant object, to get the irradiance as well (units in kernels/lights.h). The normal and the
 // direction need not be unit length (they are normalized); ids must be unique strings.
+// Polygon side: with an optional "front_normal" the polygon emits on that side only (0 from its
+// back) in either vertex order; without it, it emits towards the receiver, so either vertex
+// order gives the same F (shared/refs/README.md). The stored polygon is reordered to be
+// counter-clockwise seen from its emitting side. Scene faces, unlike queries, take their front
+// from the winding (DESIGN.md "Physics conventions").
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -25,7 +30,7 @@ struct PointQuery {
   Kind kind = Kind::Polygon;
   Vec3 point = Vec3::Zero();       // receiver point, metres
   Vec3 normal = Vec3::UnitZ();     // receiver normal, unit
-  Polygon polygon;                 // Kind::Polygon: >= 3 vertices, counter-clockwise from the front
+  Polygon polygon;                 // Kind::Polygon: >= 3 vertices, counter-clockwise from the emitting side
   Vec3 center = Vec3::Zero();      // Kind::Sphere: centre, metres
   double radius = 0.0;             // Kind::Sphere: radius > 0, metres; the point is not inside
   Vec3 direction = Vec3::UnitZ();  // Kind::Distant: unit, toward the light

@@ -33,7 +33,8 @@ MemoryEstimate estimate_memory(const PatchMesh& mesh, uint64_t seed = 1);
 // MemAvailable from /proc/meminfo, bytes; 0 when it cannot be read.
 double available_memory_bytes();
 
-// "1.6 GiB", "512 MiB", "3.2 KiB", "100 bytes" (powers of 1024, 2 significant digits above 10).
+// "1.6 GiB", "512 MiB", "3.2 KiB", "100 bytes": powers of 1024, one decimal below 10 units ("1 GiB"
+// when it is .0), whole units from 10 up.
 std::string format_bytes(double bytes);
 // 14000 -> "14,000".
 std::string format_count(long long n);

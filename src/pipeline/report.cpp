@@ -66,6 +66,8 @@ nlohmann::json summary_json(const Scene& scene, const SolveSummary& s) {
   j["visibility"] = {{"mode", s.visibility_mode}, {"reason", s.visibility_reason}, {"rays_per_pair", s.rays},
                      {"rays_cast", s.fill.rays_cast + s.vertex_rays_cast}};
   j["quadrature"] = s.quadrature;
+  j["pair_rules"] = {{"accuracy", s.accuracy}, {"fixed", s.fill.pairs_fixed_rule}, {"gauss", s.fill.pairs_gauss},
+                     {"adaptive", s.fill.pairs_adaptive}, {"kernel_evaluations", s.fill.kernel_evaluations}};
   j["matrix"] = {{"storage", s.matrix_storage}, {"bytes", s.matrix_bytes}};
   j["memory_estimate"] = {{"dense_bytes", s.memory.dense_bytes}, {"sparse_bytes", s.memory.sparse_bytes},
                           {"nonzero_pairs", s.memory.nonzero_pairs}, {"per_patch_bytes", s.memory.per_patch_bytes},
@@ -112,13 +114,19 @@ std::string summary_table(const Scene& scene, const SolveSummary& s) {
                       << ", reciprocity " << std::setprecision(3) << s.checks.reciprocity_error << "\n";
   row("visibility") << s.visibility_mode << " — " << s.visibility_reason << "\n";
   if (s.rays) row("rays") << s.fill.rays_cast + s.vertex_rays_cast << " cast (" << s.rays << " per pair)\n";
-  row("quadrature") << s.quadrature << (s.quadrature == 1 ? " (centroid)" : " (Gauss)") << "\n";
+  if (s.fill.pairs_gauss + s.fill.pairs_adaptive > 0)
+    row("pair rules") << "accuracy " << s.accuracy << ": " << s.fill.pairs_gauss << " Gauss (far), "
+                      << s.fill.pairs_adaptive << " adaptive (near/touching), " << s.fill.pairs_fixed_rule
+                      << " fixed-rule (occluded)\n";
+  else
+    row("quadrature") << s.quadrature << (s.quadrature == 1 ? " (centroid)" : " (Gauss)") << "\n";
   row("matrix") << s.matrix_storage << ", " << std::setprecision(3) << s.matrix_bytes / 1048576.0 << " MiB\n";
   row("memory estimate") << format_bytes(s.memory.dense_bytes) << " dense, " << format_bytes(s.memory.sparse_bytes)
                          << " sparse (" << format_count(s.memory.nonzero_pairs) << " pairs facing); limit "
                          << format_bytes(s.memory_limit_bytes) << " (" << s.memory_limit_source << ")\n";
   row("solver") << method_name(s.solver.method) << ", " << s.solver.iterations
-                << (s.solver.method == SolverMethod::GaussSeidel || s.solver.method == SolverMethod::Sor ? " sweeps" : " products")
+                << (s.solver.method == SolverMethod::GaussSeidel || s.solver.method == SolverMethod::Sor ? " sweeps"
+                    : s.solver.method == SolverMethod::Direct ? " LU solves" : " products")
                 << ", residual " << std::setprecision(3)
                 << s.solver.residual << ", " << s.solver.channels_solved
                 << (s.solver.channels_solved == 1 ? " channel (all grey)" : " channels") << "\n";

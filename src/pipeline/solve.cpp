@@ -188,7 +188,16 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
     case VisibilityMode::Exact: s.visibility_mode = "exact"; s.visibility_reason = "requested (--visibility exact)"; break;
     case VisibilityMode::Auto:
       if (scene_needs_no_visibility(scene, &reason)) { s.visibility_mode = "none"; s.visibility_reason = "auto: " + reason; }
-      else { s.visibility_mode = "rays"; s.visibility_reason = "auto: " + reason; }
+      else if (scene.faces.size() <= kAutoExactMaxFaces) {
+        // Few occluders per shaft: exact clipping is both exact and faster than rays (docs/performance.md).
+        s.visibility_mode = "exact";
+        s.visibility_reason = "auto: " + reason + "; " + std::to_string(scene.faces.size()) + " faces <= " +
+                              std::to_string(kAutoExactMaxFaces) + ", so exact clipping";
+      } else {
+        s.visibility_mode = "rays";
+        s.visibility_reason = "auto: " + reason + "; " + std::to_string(scene.faces.size()) + " faces > " +
+                              std::to_string(kAutoExactMaxFaces) + ", so rays";
+      }
   }
   if (s.visibility_mode != "none")
     vis = std::make_unique<Visibility>(scene, s.visibility_mode == "exact" ? VisibilityMethod::Exact : VisibilityMethod::Rays);
@@ -197,11 +206,13 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
 
   FillOptions fill;
   fill.quadrature = opt.quadrature;
+  fill.tolerance = opt.accuracy;
   fill.visibility = vis.get();
   fill.rays = opt.rays;
   fill.seed = opt.seed;
   fill.progress = progress("form factors");
   s.quadrature = opt.quadrature;
+  s.accuracy = opt.accuracy;
   s.matrix_storage = "dense double";
   s.matrix_bytes = double(s.patches) * s.patches * sizeof(double);
   check_memory(r.mesh, opt, s);

@@ -45,13 +45,14 @@ struct SolverOptions {
 };
 
 struct SolverReport {
-  int iterations = 0;       // largest count over the channels: sweeps or matrix-vector products
+  int iterations = 0;       // largest over the channels: sweeps (gauss-seidel, sor), passes over F
+                            // (cg, gmres: products incl. residual checks), LU solves (direct)
   double residual = 0.0;    // largest final relative residual over the channels
   int channels_solved = 0;  // 1 when every material is grey (channels 1, 2 copied), else 3
   bool converged = false;
   SolverMethod method = SolverMethod::GaussSeidel;  // what produced B (never Auto)
   double seconds = 0.0;     // wall time of the solve (all channels)
-  double omega = 0.0;       // sor: the relaxation factor used; else 0
+  double omega = 0.0;       // sor: the relaxation factor used (largest over channels); else 0
   double reciprocity_error = -1.0;  // cg: ‖S − Sᵀ‖_F / ‖S‖_F, S = diag(A)F; −1 = not measured
   std::string detail;       // one line: how the method went (restarts, fallback), may be empty
 };
