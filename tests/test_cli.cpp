@@ -210,3 +210,22 @@ TEST(Cli, AccuracyOptionReachesTheExactCubeSolution) {
   EXPECT_NEAR(B[3], want[1], 1e-8 * want[1]);
   for (int wall = 2; wall < 6; ++wall) EXPECT_NEAR(B[3 * wall], want[2], 1e-8 * want[2]);
 }
+
+// Analytic lights from a scene file: a normalized distant light gives exactly its intensity as
+// irradiance on a surface facing it (seed 001), so a lone floor of ρ = 0.5 has B = 500.
+TEST(Cli, SceneFileLightsGiveDirectIrradiance) {
+  const fs::path dir = scratch();
+  std::ofstream(dir / "floor.off") << "OFF\n4 1 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n";
+  std::ofstream(dir / "sun.json") << R"({"meshes": [{"file": "floor.off", "reflectance": [0.5, 0.5, 0.5]}],
+    "lights": [{"type": "distant", "direction": [0, 0, 1], "angle": 0.53, "intensity": 1000, "normalize": true}]})";
+  const std::string out = (dir / "sun.vtu").string();
+  const CliRun r = run("solve " + (dir / "sun.json").string() + " -o " + out + " --max-edge 0.5 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto s = nlohmann::json::parse(r.out);
+  EXPECT_EQ(s["lights"], 1);
+  EXPECT_NEAR(s["energy_w"]["direct_in"][0].get<double>(), 1000.0, 1e-9);
+  EXPECT_LE(s["energy_w"]["relative_imbalance"].get<double>(), 1e-12);
+  const VtuGrid g = photometria::read_vtu(out);
+  for (double b : array(g.cell_arrays, "radiosity").values) EXPECT_NEAR(b, 500.0, 1e-9);
+  for (double b : array(g.point_arrays, "radiosity").values) EXPECT_NEAR(b, 500.0, 1e-9);
+}

@@ -66,6 +66,7 @@ nlohmann::json summary_json(const Scene& scene, const SolveSummary& s) {
   j["visibility"] = {{"mode", s.visibility_mode}, {"reason", s.visibility_reason}, {"rays_per_pair", s.rays},
                      {"rays_cast", s.fill.rays_cast + s.vertex_rays_cast}};
   j["quadrature"] = s.quadrature;
+  j["lights"] = s.lights;
   j["pair_rules"] = {{"accuracy", s.accuracy}, {"fixed", s.fill.pairs_fixed_rule}, {"gauss", s.fill.pairs_gauss},
                      {"adaptive", s.fill.pairs_adaptive}, {"kernel_evaluations", s.fill.kernel_evaluations}};
   j["matrix"] = {{"storage", s.matrix_storage}, {"bytes", s.matrix_bytes}};
@@ -85,7 +86,7 @@ nlohmann::json summary_json(const Scene& scene, const SolveSummary& s) {
   j["seconds"] = t;
   j["peak_memory_bytes"] = peak_memory_bytes();
   j["energy_w"] = {{"emitted", rgb_json(s.energy.emitted)}, {"absorbed", rgb_json(s.energy.absorbed)},
-                   {"escaped", rgb_json(s.energy.escaped)}, {"relative_imbalance", s.energy.relative_imbalance}};
+                   {"escaped", rgb_json(s.energy.escaped)}, {"direct_in", rgb_json(s.energy.direct_in)}, {"relative_imbalance", s.energy.relative_imbalance}};
   return j;
 }
 
@@ -132,6 +133,8 @@ std::string summary_table(const Scene& scene, const SolveSummary& s) {
                 << (s.solver.channels_solved == 1 ? " channel (all grey)" : " channels") << "\n";
   row("output points") << s.output_points << "\n";
   row("emitted W") << rgb(s.energy.emitted) << "\n";
+  if (s.lights) row("from lights W") << rgb(s.energy.direct_in) << " (" << s.lights << " analytic lights)\n";
+  else row("lights") << "none: direct-light pass skipped\n";
   row("absorbed W") << rgb(s.energy.absorbed) << "\n";
   row("escaped W") << rgb(s.energy.escaped) << "\n";
   row("energy imbalance") << std::setprecision(3) << s.energy.relative_imbalance << "\n";

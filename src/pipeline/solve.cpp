@@ -9,7 +9,9 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "formfactors/quadrature.h"
 #include "kernels/lambert.h"
+#include "pipeline/direct_light.h"
 #include "util/error.h"
 
 namespace photometria {
@@ -79,7 +81,8 @@ void split_output_points(const Scene& scene, SolveResult& r) {
 
 // H(x) = Σ_j F_vis(dA_x -> P_j) B_j at every output point (Baum et al. 1989), with the same
 // shaft culling and visibility method as the fill (visibility/visibility.h).
-void gather_at_points(const Scene& scene, const Visibility* vis, const SolveOptions& opt, SolveResult& r) {
+void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLighting& direct, const SolveOptions& opt,
+                      SolveResult& r) {
   const PatchMesh& mesh = r.mesh;
   const int np = static_cast<int>(r.points.size());
   const double tol = plane_tolerance(mesh);
@@ -110,6 +113,7 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const SolveOpti
       }
       h += f * r.radiosity.row(j);
     }
+    if (!direct.empty()) h += direct.at(x.position, x.normal).matrix().transpose();
     const Material& m = scene.materials[x.material];
     r.point_irradiance.row(o) = h;
     r.point_radiosity.row(o) = m.emission.matrix().transpose() + m.reflectance.matrix().transpose().cwiseProduct(h);
@@ -120,20 +124,23 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const SolveOpti
   r.summary.vertex_pairs_culled = culled;
 }
 
-EnergyBalance energy_balance(const FormFactorMatrix& F, const SolveResult& r) {
+EnergyBalance energy_balance(const FormFactorMatrix& F, const ChannelMatrix& direct, const SolveResult& r) {
   EnergyBalance e;
   const Eigen::VectorXd row_sums = F.rowwise().sum();
   for (int i = 0; i < r.mesh.size(); ++i) {
     const double a = r.mesh.patches[i].area;
     for (int c = 0; c < 3; ++c) {
       e.emitted[c] += a * r.emission(i, c);
+      e.direct_in[c] += a * direct(i, c);
       e.absorbed[c] += a * (1.0 - r.reflectance(i, c)) * r.irradiance(i, c);
       e.escaped[c] += a * r.radiosity(i, c) * std::max(0.0, 1.0 - row_sums[i]);
     }
   }
   for (int c = 0; c < 3; ++c)
-    if (e.emitted[c] > 0)
-      e.relative_imbalance = std::max(e.relative_imbalance, std::abs(e.emitted[c] - e.absorbed[c] - e.escaped[c]) / e.emitted[c]);
+    if (e.emitted[c] + e.direct_in[c] > 0)
+      e.relative_imbalance =
+          std::max(e.relative_imbalance, std::abs(e.emitted[c] + e.direct_in[c] - e.absorbed[c] - e.escaped[c]) /
+                                             (e.emitted[c] + e.direct_in[c]));
   return e;
 }
 
@@ -163,9 +170,12 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
                         : std::function<void(double)>();
   };
 
-  bool emits = false;
+  const DirectLighting lights(scene);
+  bool emits = !lights.empty();
   for (const Face& f : scene.faces) emits = emits || (scene.materials[f.material].emission > 0).any();
-  if (!emits) throw_bad_input(scene.source + ": nothing to solve: no face emits light (set Ke in the .mtl or --emission)");
+  if (!emits)
+    throw_bad_input(scene.source + ": nothing to solve: no face emits light and there are no lights "
+                                   "(set Ke in the .mtl, --emission, or \"lights\" in a scene file)");
 
   r.mesh = subdivide(scene, opt.patching);
   s.faces = static_cast<int>(scene.faces.size());
@@ -224,7 +234,19 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
 
   bool grey = true;
   for (const Material& m : scene.materials) grey = grey && m.is_grey();
-  const ChannelMatrix direct = ChannelMatrix::Zero(s.patches, 3);  // no analytic lights yet
+  // H_direct per patch: the mean over the receiver rule's points. Skipped without lights.
+  ChannelMatrix direct = ChannelMatrix::Zero(s.patches, 3);
+  s.lights = lights.count();
+  if (!lights.empty()) {
+#pragma omp parallel for schedule(dynamic, 16)
+    for (int i = 0; i < s.patches; ++i) {
+      Vec3 c[4];
+      r.mesh.polygon(i, c);
+      const Patch& p = r.mesh.patches[i];
+      for (const QuadraturePoint& q : patch_quadrature(c, p.corner_count, opt.quadrature))
+        direct.row(i) += q.weight * lights.at(q.point, p.normal).matrix().transpose();
+    }
+  }
   s.tolerance = opt.solver.tolerance;
   SolverOptions solver = opt.solver;  // + the patch areas, for the symmetric (cg) formulation
   solver.areas.resize(s.patches);
@@ -237,12 +259,12 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
     throw Error(ErrorKind::NotConverged, m.str());
   }
   r.irradiance = F * r.radiosity + direct;
-  s.energy = energy_balance(F, r);
+  s.energy = energy_balance(F, direct, r);
   timer.lap("solve");
 
   split_output_points(scene, r);
   s.output_points = static_cast<int>(r.points.size());
-  gather_at_points(scene, vis.get(), opt, r);
+  gather_at_points(scene, vis.get(), lights, opt, r);
   timer.lap("vertex_gather");
   // Never hand a NaN on to a result file: with finite, checked inputs this is a bug (exit 4).
   if (!r.radiosity.allFinite() || !r.irradiance.allFinite() || !r.point_radiosity.allFinite() ||

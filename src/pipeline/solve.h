@@ -45,9 +45,10 @@ struct SolveOptions {
 
 struct EnergyBalance {
   Rgb emitted = Rgb::Zero();   // Σ A_i E_i, W
+  Rgb direct_in = Rgb::Zero(); // Σ A_i H_direct,i: arriving from analytic lights, W
   Rgb absorbed = Rgb::Zero();  // Σ A_i (1 − ρ_i) H_i, W
   Rgb escaped = Rgb::Zero();   // Σ A_i B_i (1 − Σ_j F_ij): leaves through openings, W
-  double relative_imbalance = 0.0;  // max over channels |emitted − absorbed − escaped| / emitted
+  double relative_imbalance = 0.0;  // max over channels |emitted + direct_in − absorbed − escaped| / (emitted + direct_in)
 };
 
 struct SolveSummary {
@@ -61,6 +62,7 @@ struct SolveSummary {
   std::string visibility_reason;  // why that mode was chosen
   int quadrature = 1;
   double accuracy = 0.0;
+  int lights = 0;  // analytic lights in the scene file (0: the direct-light pass is skipped)
   int rays = 0;
   SolverReport solver;
   double tolerance = 0.0;
