@@ -30,13 +30,13 @@ int run_validate(const ValidateArgs& a) {
   }
   if (!a.report.empty()) std::filesystem::create_directories(a.report);
 
-  std::cout << std::left << std::setw(46) << "scene" << std::setw(12) << "setting" << std::right << std::setw(8)
+  std::cout << std::left << std::setw(46) << "scene" << std::setw(20) << "setting" << std::right << std::setw(8)
             << "patches" << std::setw(7) << "cases" << std::setw(13) << "max rel err" << std::setw(13) << "rms rel err"
             << std::setw(11) << "seconds" << "\n";
   pv::ValidationOptions opt;
   opt.quick = a.quick;
   opt.on_row = [](const pv::ValidationRow& r) {
-    std::cout << std::left << std::setw(46) << r.scene << std::setw(12) << r.setting << std::right << std::setw(8)
+    std::cout << std::left << std::setw(46) << r.scene << std::setw(20) << r.setting << std::right << std::setw(8)
               << r.patches << std::setw(7) << r.cases << std::setw(13) << std::setprecision(3) << std::scientific
               << r.max_rel_error << std::setw(13) << r.rms_rel_error << std::setw(11) << std::defaultfloat
               << std::setprecision(4) << r.seconds << "\n"

@@ -72,6 +72,7 @@ class Suite {
     patch_patch_adaptive();
     cube_floor_emitting();
     white_furnace();
+    furnace_solvers();
     sphere_cap();
     return rows_;
   }
@@ -222,6 +223,38 @@ class Suite {
         emit(row);
       }
     }
+  }
+
+  // Every solver on the white furnace (n × n per wall) at every ρ, to a 1e-10 relative residual:
+  // one line per solver; the setting names ρ and the iterations used.
+  void furnace_solvers() {
+    const int n = opt_.quick ? 4 : 16;
+    const Scene s = unit_cube_scene(0.5, 1.0, -1);
+    const PatchMesh mesh = subdivide(s, {1.0 / n * (1 + 1e-9), 0.0});
+    FillStats st;
+    const FormFactorMatrix F = fill_form_factors(mesh, FillOptions{}, st);
+    const int N = mesh.size();
+    std::vector<SolverMethod> methods = {SolverMethod::GaussSeidel, SolverMethod::Sor, SolverMethod::Cg,
+                                         SolverMethod::Gmres};
+    if (N <= 1600) methods.push_back(SolverMethod::Direct);
+    for (SolverMethod m : methods)
+      for (double rho : {0.5, 0.9, 0.99, 0.999}) {
+        SolverOptions so = gauss_seidel_to(1e-10, 1000000);
+        so.method = m;
+        so.areas.resize(N);
+        for (int i = 0; i < N; ++i) so.areas[i] = mesh.patches[i].area;
+        ChannelMatrix B;
+        const auto t0 = Clock::now();
+        const SolverReport rep = solve_radiosity(F, ChannelMatrix::Constant(N, 3, 1.0), ChannelMatrix::Constant(N, 3, rho),
+                                                 ChannelMatrix::Zero(N, 3), true, so, B);
+        ErrorStats err;
+        for (int i = 0; i < N; ++i) err.add(B(i, 0), 1.0 / (1.0 - rho));
+        std::ostringstream setting;
+        setting << "rho=" << rho << " (" << rep.iterations << " it)";
+        ValidationRow row{std::string("furnace solver: ") + method_name(m), setting.str(), N, 1, 0, 0, 0, since(t0)};
+        err.into(row);
+        emit(row);
+      }
   }
 
   // Sphere enclosure with an emitting polar cap (z >= 0.5, a quarter of the area), ρ = 0.5:
