@@ -1,6 +1,8 @@
 // Kernel throughput: point-to-quad evaluations per second (one thread), per formulation.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
+#include <cmath>
 #include <random>
 
 #include "kernels/kernels.h"
@@ -20,21 +22,51 @@ std::vector<pm::Receiver> receivers(bool tilted) {
   return r;
 }
 const pm::Vec3 kQuad[4] = {{0.2, 0.2, 1.0}, {0.2, 0.8, 1.0}, {0.8, 0.8, 1.0}, {0.8, 0.2, 1.0}};  // faces down
+const pm::Vec3 kTriangle[3] = {{0.2, 0.2, 1.0}, {0.5, 0.8, 1.0}, {0.8, 0.2, 1.0}};              // faces down
 
-void run(benchmark::State& state, pm::Kernel kernel, bool tilted) {
+// The plain textbook form for comparison only: seed 000 eq. (1) with acos of normalized vectors,
+// no clipping, no one-sided test (valid for these unclipped configurations).
+double plain_acos_lambert(const pm::Receiver& r, const pm::Vec3* v, int n) {
+  double sum = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const pm::Vec3 a = (v[i] - r.point).normalized(), b = (v[(i + 1) % n] - r.point).normalized();
+    const pm::Vec3 c = a.cross(b);
+    sum += std::acos(std::clamp(a.dot(b), -1.0, 1.0)) * r.normal.dot(c) / c.norm();
+  }
+  return -sum / (2 * M_PI);
+}
+
+void run(benchmark::State& state, pm::Kernel kernel, bool tilted, int corners) {
   const auto recv = receivers(tilted);
+  const pm::Vec3* poly = corners == 4 ? kQuad : kTriangle;
   double sum = 0.0;
   for (auto _ : state)
-    for (const auto& r : recv) sum += pm::point_form_factor(kernel, r, kQuad, 4);
+    for (const auto& r : recv) sum += pm::point_form_factor(kernel, r, poly, corners);
   benchmark::DoNotOptimize(sum);
   state.SetItemsProcessed(state.iterations() * static_cast<int64_t>(recv.size()));
 }
 }  // namespace
 
-BENCHMARK_CAPTURE(run, lambert_quad, pm::Kernel::Lambert, false);
-BENCHMARK_CAPTURE(run, lambert_quad_clipped, pm::Kernel::Lambert, true);
-BENCHMARK_CAPTURE(run, iwanicki_quad, pm::Kernel::Iwanicki, false);
-BENCHMARK_CAPTURE(run, stark_vertex_quad, pm::Kernel::StarkVertex, false);
-BENCHMARK_CAPTURE(run, stark_image_quad, pm::Kernel::StarkImage, false);
+void run_plain(benchmark::State& state, int corners) {
+  const auto recv = receivers(false);
+  const pm::Vec3* poly = corners == 4 ? kQuad : kTriangle;
+  double sum = 0.0;
+  for (auto _ : state)
+    for (const auto& r : recv) sum += plain_acos_lambert(r, poly, corners);
+  benchmark::DoNotOptimize(sum);
+  state.SetItemsProcessed(state.iterations() * static_cast<int64_t>(recv.size()));
+}
+
+BENCHMARK_CAPTURE(run_plain, plain_acos_quad, 4);
+BENCHMARK_CAPTURE(run_plain, plain_acos_triangle, 3);
+BENCHMARK_CAPTURE(run, lambert_quad, pm::Kernel::Lambert, false, 4);
+BENCHMARK_CAPTURE(run, lambert_triangle, pm::Kernel::Lambert, false, 3);
+BENCHMARK_CAPTURE(run, lambert_quad_clipped, pm::Kernel::Lambert, true, 4);
+BENCHMARK_CAPTURE(run, iwanicki_quad, pm::Kernel::Iwanicki, false, 4);
+BENCHMARK_CAPTURE(run, iwanicki_triangle, pm::Kernel::Iwanicki, false, 3);
+BENCHMARK_CAPTURE(run, stark_vertex_quad, pm::Kernel::StarkVertex, false, 4);
+BENCHMARK_CAPTURE(run, stark_vertex_triangle, pm::Kernel::StarkVertex, false, 3);
+BENCHMARK_CAPTURE(run, stark_image_quad, pm::Kernel::StarkImage, false, 4);
+BENCHMARK_CAPTURE(run, stark_image_triangle, pm::Kernel::StarkImage, false, 3);
 
 BENCHMARK_MAIN();

@@ -147,3 +147,12 @@ TEST(CliFormFactor, EitherOrderWithoutFrontNormalOneSidedWithIt) {
   EXPECT_NEAR(v[2]["form_factor"].get<double>(), b3, 1e-15);
   EXPECT_EQ(v[3]["form_factor"].get<double>(), 0.0);  // seen from its back
 }
+
+TEST(CliFormFactor, NumberBeyondDoubleIsABadInputNotACrash) {
+  const std::string q = write("huge.json", R"({"queries": [{"id": "q1", "point": [0, 0, 1e999], "normal": [0, 0, 1],
+    "polygon": [[-1, -1, 1], [1, -1, 1], [1, 1, 1]]}]})");
+  const CliRun r = run("formfactor " + q);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("huge.json"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("1e999"), std::string::npos) << r.err;
+}

@@ -149,6 +149,11 @@ std::vector<PointQuery> load_queries(const std::string& path) {
     std::string what = e.what();
     const size_t colon = what.rfind(": ");
     throw_bad_input(at(path, line) + ": invalid JSON: " + (colon == std::string::npos ? what : what.substr(colon + 2)));
+  } catch (const json::exception& e) {
+    // e.g. out_of_range 406 for a number beyond double (1e999): name the file and the reason.
+    std::string what = e.what();
+    const size_t colon = what.rfind("] ");
+    throw_bad_input(path + ": invalid JSON: " + (colon == std::string::npos ? what : what.substr(colon + 2)));
   }
   return parse_queries(doc, path);
 }

@@ -45,6 +45,7 @@ class Subdivider {
     mesh_.points = scene_.vertices;  // original vertices keep their indices
     create_edge_points();
     for (int f = 0; f < static_cast<int>(scene_.faces.size()); ++f) {
+      if (scene_.faces[f].obstruction_only) continue;  // occluder only: no patches
       if (scene_.faces[f].vertices.size() == 4) split_quad(f); else split_triangle(f);
     }
     return std::move(mesh_);

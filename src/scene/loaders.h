@@ -49,6 +49,7 @@ RawScene read_mesh_file(const std::string& path, const LoadOptions& options);
 RawScene read_obj(const std::string& path, const LoadOptions& options);        // load_obj.cpp
 RawScene read_openmesh(const std::string& path, const LoadOptions& options);   // load_openmesh.cpp
 RawScene read_json_scene(const std::string& path, const LoadOptions& options); // load_json.cpp
+RawScene read_view3d(const std::string& path, const LoadOptions& options);     // load_view3d.cpp (.vs3)
 
 // obj_scan.cpp: the validation pass over OBJ text that tinyobjloader does not do (it accepts
 // garbage numbers as 0 and out-of-range indices). Also records per face the `usemtl` name in

@@ -25,11 +25,13 @@ RawScene read_mesh_file(const std::string& path, const LoadOptions& options) {
     raw = read_obj(path, options);
   } else if (ext == ".off" || ext == ".ply" || ext == ".stl" || ext == ".om") {
     raw = read_openmesh(path, options);
+  } else if (ext == ".vs3") {
+    raw = read_view3d(path, options);
   } else if (ext == ".json") {
     throw_bad_input(at(path) + ": a scene file cannot be used as a mesh");
   } else {
     throw_bad_input(at(path) + ": unknown mesh format " + in_quotes(ext.empty() ? "(no extension)" : ext) +
-                    " (expected .obj, .off, .ply, .stl, .om or a .json scene)");
+                    " (expected .obj, .off, .ply, .stl, .om, .vs3 or a .json scene)");
   }
   if (raw.scene.faces.empty()) throw_bad_input(at(path) + ": no faces");
   return raw;

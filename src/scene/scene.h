@@ -45,6 +45,8 @@ struct Face {
   int material = 0;           // index into Scene::materials
   int group = 0;              // index into Scene::groups (OBJ g/o name, or one group per mesh file)
   int source_face = 0;        // index of the face in the input (split faces share it)
+  bool obstruction_only = false;  // blocks light but neither emits nor receives (View3D `O` surface):
+                                  // no patches, still an occluder for visibility
 };
 
 // What loading did to the input, reported in the solve summary.

@@ -1,0 +1,127 @@
+// View-factor matrix writers (viewfactor_output.h).
+#include "io/viewfactor_output.h"
+
+#include <cstdint>
+#include <cstdio>
+#include <fstream>
+
+#include "io/atomic_file.h"
+#include "util/error.h"
+
+namespace photometria {
+
+namespace {
+
+std::string g17(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+std::string csv_cell(const std::string& s) {
+  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
+  std::string out(1, '"');
+  for (char c : s) {
+    if (c == '"') out.push_back('"');
+    out.push_back(c);
+  }
+  out.push_back('"');
+  return out;
+}
+
+template <class T> void put(std::ofstream& out, T v) {
+  // Little-endian hosts only (checked below): the in-memory bytes are the file's.
+  out.write(reinterpret_cast<const char*>(&v), sizeof v);
+}
+
+bool little_endian() {
+  const uint16_t one = 1;
+  return *reinterpret_cast<const unsigned char*>(&one) == 1;
+}
+
+}  // namespace
+
+bool view_factor_format_from_name(const std::string& name, ViewFactorFormat& out) {
+  if (name == "csv") out = ViewFactorFormat::Csv;
+  else if (name == "sparse") out = ViewFactorFormat::Sparse;
+  else if (name == "binary") out = ViewFactorFormat::Binary;
+  else if (name == "view3d") out = ViewFactorFormat::View3d;
+  else return false;
+  return true;
+}
+
+SparseWriteStats write_view_factors(const std::string& path, ViewFactorFormat format,
+                                    const std::vector<std::string>& names, const std::vector<double>& areas,
+                                    const ViewFactorRows& F, double threshold, const std::string& title) {
+  SparseWriteStats st;
+  const int n = static_cast<int>(F.rows());
+  AtomicOutput atomic(path);
+  {
+    std::ofstream out(atomic.temp_path(), std::ios::binary | std::ios::trunc);
+    if (!out) throw_io("cannot write '" + path + "'");
+    switch (format) {
+      case ViewFactorFormat::Csv: {
+        std::string line = "name,area";
+        for (const std::string& s : names) line.append(1, ',').append(csv_cell(s));
+        out << line << "\n";
+        for (int i = 0; i < n; ++i) {
+          line = csv_cell(names[i]);
+          line.append(1, ',').append(g17(areas[i]));
+          for (int j = 0; j < n; ++j) line.append(1, ',').append(g17(F(i, j)));
+          out << line << "\n";
+        }
+        break;
+      }
+      case ViewFactorFormat::Sparse: {
+        for (int i = 0; i < n; ++i) out << "# surface," << i << "," << csv_cell(names[i]) << "," << g17(areas[i]) << "\n";
+        out << "i,j,F\n";
+        for (int i = 0; i < n; ++i) {
+          double dropped = 0.0;
+          for (int j = 0; j < n; ++j) {
+            const double f = F(i, j);
+            if (f == 0.0) continue;
+            if (f < threshold) {
+              dropped += f;
+              ++st.dropped;
+              continue;
+            }
+            out << i << "," << j << "," << g17(f) << "\n";
+            ++st.written;
+          }
+          st.total_dropped += dropped;
+          if (dropped > st.max_dropped_row_sum) { st.max_dropped_row_sum = dropped; st.worst_row = i; }
+        }
+        break;
+      }
+      case ViewFactorFormat::Binary: {
+        if (!little_endian()) throw_io("binary view-factor output needs a little-endian host");
+        out.write("PMVF\0\0\0\1", 8);
+        put<uint64_t>(out, static_cast<uint64_t>(n));
+        for (const std::string& s : names) {
+          put<uint32_t>(out, static_cast<uint32_t>(s.size()));
+          out.write(s.data(), static_cast<std::streamsize>(s.size()));
+        }
+        for (int i = 0; i < n; ++i) put<double>(out, areas[i]);
+        out.write(reinterpret_cast<const char*>(F.data()), static_cast<std::streamsize>(sizeof(double) * n * n));
+        break;
+      }
+      case ViewFactorFormat::View3d: {
+        char buf[64];
+        out << "T " << title << "\n" << "F 3 " << n << "\nA";
+        for (int i = 0; i < n; ++i) { std::snprintf(buf, sizeof buf, " %.6e", areas[i]); out << buf; }
+        out << "\n";
+        for (int i = 0; i < n; ++i) {
+          for (int j = 0; j < n; ++j) { std::snprintf(buf, sizeof buf, "%s%.6f", j ? " " : "", F(i, j)); out << buf; }
+          out << "  ! " << names[i] << "\n";
+        }
+        break;
+      }
+    }
+    out.flush();
+    if (!out) throw_io("cannot write '" + path + "' (disk full?)");
+  }
+  atomic.commit();
+  return st;
+}
+
+}  // namespace photometria

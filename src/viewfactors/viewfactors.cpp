@@ -1,0 +1,291 @@
+// View factors: fill, aggregation, checks, enforcement, point factors (viewfactors.h).
+#include "viewfactors/viewfactors.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "kernels/lambert.h"
+#include "util/error.h"
+#include "visibility/visibility.h"
+
+namespace photometria {
+
+PatchViewFactors compute_view_factors(const Scene& scene, const ViewFactorOptions& opt) {
+  PatchViewFactors r;
+  r.mesh = subdivide(scene, opt.patching);
+  if (r.mesh.size() == 0) throw_bad_input(scene.source + ": no surface to compute view factors for");
+  // Visibility choice: the same rule as the solve (pipeline/solve.cpp, VisibilityMode::Auto).
+  std::string reason;
+  switch (opt.visibility) {
+    case VisibilityMode::None: r.visibility_mode = "none"; r.visibility_reason = "requested (--visibility none)"; break;
+    case VisibilityMode::Rays: r.visibility_mode = "rays"; r.visibility_reason = "requested (--visibility rays)"; break;
+    case VisibilityMode::Exact: r.visibility_mode = "exact"; r.visibility_reason = "requested (--visibility exact)"; break;
+    case VisibilityMode::Auto:
+      if (scene_needs_no_visibility(scene, &reason)) {
+        r.visibility_mode = "none";
+        r.visibility_reason = "auto: " + reason;
+      } else if (scene.faces.size() <= kAutoExactMaxFaces) {
+        r.visibility_mode = "exact";
+        r.visibility_reason = "auto: " + reason + "; " + std::to_string(scene.faces.size()) + " faces <= " +
+                              std::to_string(kAutoExactMaxFaces) + ", so exact clipping";
+      } else {
+        r.visibility_mode = "rays";
+        r.visibility_reason = "auto: " + reason + "; " + std::to_string(scene.faces.size()) + " faces > " +
+                              std::to_string(kAutoExactMaxFaces) + ", so rays";
+      }
+  }
+  if (r.visibility_mode != "none")
+    r.visibility = std::make_shared<const Visibility>(
+        scene, r.visibility_mode == "exact" ? VisibilityMethod::Exact : VisibilityMethod::Rays);
+  FillOptions fill;
+  fill.quadrature = opt.quadrature;
+  fill.tolerance = opt.accuracy;
+  fill.visibility = r.visibility.get();
+  fill.rays = opt.rays;
+  fill.seed = opt.seed;
+  r.F = fill_form_factors(r.mesh, fill, r.fill);
+  return r;
+}
+
+Aggregation make_aggregation(const Scene& scene, const PatchMesh& mesh, AggregateLevel level) {
+  Aggregation a;
+  const int n = mesh.size();
+  a.of_patch.assign(static_cast<size_t>(n), -1);
+  if (level == AggregateLevel::Patch) {
+    for (int i = 0; i < n; ++i) {
+      a.names.push_back("patch " + std::to_string(i));
+      a.areas.push_back(mesh.patches[i].area);
+      a.of_patch[i] = i;
+    }
+    return a;
+  }
+  // Surfaces in order of first appearance of their key (group index or source face).
+  std::vector<int> index_of_key;
+  for (int i = 0; i < n; ++i) {
+    const Face& f = scene.faces[static_cast<size_t>(mesh.patches[i].face)];
+    const int key = level == AggregateLevel::Group ? f.group : f.source_face;
+    if (key >= static_cast<int>(index_of_key.size())) index_of_key.resize(static_cast<size_t>(key) + 1, -1);
+    if (index_of_key[key] < 0) {
+      index_of_key[key] = a.size();
+      a.names.push_back(level == AggregateLevel::Group ? scene.groups[static_cast<size_t>(key)]
+                                                       : "face " + std::to_string(key));
+      a.areas.push_back(0.0);
+    }
+    a.of_patch[i] = index_of_key[key];
+    a.areas[static_cast<size_t>(index_of_key[key])] += mesh.patches[i].area;
+  }
+  return a;
+}
+
+ViewFactorMatrix aggregate(const FormFactorMatrix& F, const PatchMesh& mesh, const Aggregation& agg) {
+  // F_IJ = (1/A_I) Σ_{i∈I} A_i Σ_{j∈J} F_ij (Modest 2013, eq. 4.19).
+  const int g = agg.size();
+  ViewFactorMatrix out = ViewFactorMatrix::Zero(g, g);
+  for (int i = 0; i < mesh.size(); ++i) {
+    const int I = agg.of_patch[i];
+    const double ai = mesh.patches[i].area;
+    for (int j = 0; j < mesh.size(); ++j) out(I, agg.of_patch[j]) += ai * F(i, j);
+  }
+  for (int I = 0; I < g; ++I) out.row(I) /= agg.areas[static_cast<size_t>(I)];
+  return out;
+}
+
+MatrixChecks check_matrix(const ViewFactorMatrix& F, const std::vector<double>& areas) {
+  MatrixChecks c;
+  const int n = static_cast<int>(F.rows());
+  if (n == 0) return c;
+  c.min_row_sum = 1e300;
+  c.max_row_sum = -1e300;
+  c.min_entry = F.minCoeff();
+  c.max_entry = F.maxCoeff();
+  double worst = -1.0, total = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const double s = F.row(i).sum();
+    total += s;
+    c.min_row_sum = std::min(c.min_row_sum, s);
+    c.max_row_sum = std::max(c.max_row_sum, s);
+    if (std::abs(s - 1.0) > worst) { worst = std::abs(s - 1.0); c.worst_row = i; }
+    for (int j = i + 1; j < n; ++j)
+      c.reciprocity_error = std::max(c.reciprocity_error, std::abs(areas[i] * F(i, j) - areas[j] * F(j, i)) /
+                                                              std::min(areas[i], areas[j]));
+  }
+  c.mean_row_sum = total / n;
+  return c;
+}
+
+EnforcementReport enforce(ViewFactorMatrix& F, const std::vector<double>& areas, Enforcement mode, double tolerance,
+                          int max_iterations) {
+  EnforcementReport rep;
+  rep.before = check_matrix(F, areas);
+  const ViewFactorMatrix original = F;
+  const int n = static_cast<int>(F.rows());
+  const Eigen::Map<const Eigen::VectorXd> A(areas.data(), n);
+  if (mode == Enforcement::Reciprocity || mode == Enforcement::Both) {
+    // G = A·F; its symmetric part (G + Gᵀ)/2 is the nearest symmetric matrix in the Frobenius
+    // norm (orthogonal projection onto the symmetric matrices; Higham, "Computing a nearest
+    // symmetric positive semidefinite matrix", Linear Algebra Appl. 103, 1988, sec. 2).
+    Eigen::MatrixXd G = A.asDiagonal() * F;
+    G = 0.5 * (G + G.transpose()).eval();
+    F = A.cwiseInverse().asDiagonal() * G;
+  }
+  if (mode == Enforcement::Closure) {
+    for (int i = 0; i < n; ++i) {
+      const double s = F.row(i).sum();
+      if (s > 0.0) F.row(i) /= s;
+    }
+    rep.iterations = 1;
+  }
+  if (mode == Enforcement::Both) {
+    // Symmetric diagonal scaling: find d > 0 with Σ_j d_i G_ij d_j = A_i for every row i, so that
+    // F' = A⁻¹ D G D keeps A·F' = D G D symmetric and has unit row sums. Symmetric Sinkhorn–Knopp
+    // iteration d_i <- sqrt(d_i A_i / (G d)_i) (Knight, "The Sinkhorn–Knopp algorithm:
+    // convergence and applications", SIAM J. Matrix Anal. Appl. 30(1), 2008, sec. 5; the
+    // geometric-mean step converges for symmetric non-negative G with total support).
+    // Rows with no exchange (sum 0) are left alone (d_i = 1).
+    const Eigen::MatrixXd G = A.asDiagonal() * F;
+    Eigen::VectorXd d = Eigen::VectorXd::Ones(n);
+    std::vector<bool> active(static_cast<size_t>(n));
+    for (int i = 0; i < n; ++i) active[i] = G.row(i).sum() > 0.0;
+    for (rep.iterations = 0; rep.iterations < max_iterations; ++rep.iterations) {
+      const Eigen::VectorXd Gd = G * d;
+      double err = 0.0;
+      for (int i = 0; i < n; ++i)
+        if (active[i]) err = std::max(err, std::abs(d[i] * Gd[i] / A[i] - 1.0));
+      if (err <= tolerance) break;
+      for (int i = 0; i < n; ++i)
+        if (active[i]) d[i] = std::sqrt(d[i] * A[i] / Gd[i]);
+    }
+    Eigen::MatrixXd S = d.asDiagonal() * G * d.asDiagonal();
+    S = 0.5 * (S + S.transpose()).eval();  // exact symmetry after rounding
+    F = A.cwiseInverse().asDiagonal() * S;
+  }
+  rep.max_change = n ? (F - original).cwiseAbs().maxCoeff() : 0.0;
+  rep.after = check_matrix(F, areas);
+  return rep;
+}
+
+namespace {
+
+Vec3 vec3_of(const nlohmann::json& v, const std::string& where) {
+  if (!v.is_array() || v.size() != 3) throw_bad_input(where + ": expected [x, y, z]");
+  Vec3 out;
+  for (int k = 0; k < 3; ++k) {
+    if (!v[static_cast<size_t>(k)].is_number()) throw_bad_input(where + ": expected numbers");
+    out[k] = v[static_cast<size_t>(k)].get<double>();
+    if (!std::isfinite(out[k])) throw_bad_input(where + ": not finite");
+  }
+  return out;
+}
+
+void finish_point(SurfacePoint& p, const std::string& where) {
+  const double len = p.normal.norm();
+  if (!(len > 0.0) || !std::isfinite(len)) throw_bad_input(where + ": normal must be non-zero");
+  p.normal /= len;
+}
+
+}  // namespace
+
+std::vector<SurfacePoint> load_points(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw_io("cannot open '" + path + "'");
+  std::stringstream buf;
+  buf << in.rdbuf();
+  const std::string text = buf.str();
+  std::vector<SurfacePoint> points;
+  std::string ext = path.size() >= 5 ? path.substr(path.size() - 5) : path;
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext == ".json") {
+    nlohmann::json j;
+    try {
+      j = nlohmann::json::parse(text);
+    } catch (const nlohmann::json::parse_error& e) {
+      throw_bad_input(path + ": invalid JSON at byte " + std::to_string(e.byte));
+    }
+    const nlohmann::json& list = j.is_object() && j.contains("points") ? j["points"] : j;
+    if (!list.is_array()) throw_bad_input(path + ": expected an array of points or {\"points\": [...]}");
+    for (size_t k = 0; k < list.size(); ++k) {
+      const std::string where = path + ": points[" + std::to_string(k) + "]";
+      const nlohmann::json& e = list[k];
+      if (!e.is_object() || !e.contains("position") || !e.contains("normal"))
+        throw_bad_input(where + ": needs \"position\" and \"normal\"");
+      SurfacePoint p;
+      p.id = e.contains("id") ? (e["id"].is_string() ? e["id"].get<std::string>() : e["id"].dump()) : std::to_string(k);
+      p.position = vec3_of(e["position"], where + ".position");
+      p.normal = vec3_of(e["normal"], where + ".normal");
+      finish_point(p, where);
+      points.push_back(p);
+    }
+  } else {
+    // CSV: x,y,z,nx,ny,nz[,id]
+    std::istringstream lines(text);
+    std::string line;
+    long number = 0;
+    while (std::getline(lines, line)) {
+      ++number;
+      if (!line.empty() && line.back() == '\r') line.pop_back();
+      const size_t first = line.find_first_not_of(" \t");
+      if (first == std::string::npos || line[first] == '#') continue;
+      if (number == 1 && std::isalpha(static_cast<unsigned char>(line[first]))) continue;  // header
+      std::vector<std::string> cells;
+      std::stringstream ls(line);
+      std::string cell;
+      while (std::getline(ls, cell, ',')) cells.push_back(cell);
+      const std::string where = at(path, number);
+      if (cells.size() < 6) throw_bad_input(where + ": expected x,y,z,nx,ny,nz[,id]");
+      double v[6];
+      for (int k = 0; k < 6; ++k) {
+        char* end = nullptr;
+        v[k] = std::strtod(cells[k].c_str(), &end);
+        while (end && (*end == ' ' || *end == '\t')) ++end;
+        if (end == cells[k].c_str() || (end && *end) || !std::isfinite(v[k]))
+          throw_bad_input(where + ": column " + std::to_string(k + 1) + " value '" + cells[k] + "' is not a finite number");
+      }
+      SurfacePoint p;
+      p.id = cells.size() > 6 ? cells[6] : std::to_string(points.size());
+      p.position = Vec3(v[0], v[1], v[2]);
+      p.normal = Vec3(v[3], v[4], v[5]);
+      finish_point(p, where);
+      points.push_back(p);
+    }
+  }
+  if (points.empty()) throw_bad_input(path + ": no points");
+  return points;
+}
+
+ViewFactorMatrix point_view_factors(const std::vector<SurfacePoint>& points, const PatchMesh& mesh,
+                                    const Aggregation& agg, const Visibility* vis, const ViewFactorOptions& opt) {
+  const int np = static_cast<int>(points.size());
+  ViewFactorMatrix out = ViewFactorMatrix::Zero(np, agg.size());
+  const double tol = plane_tolerance(mesh);
+#pragma omp parallel for schedule(dynamic, 4)
+  for (int o = 0; o < np; ++o) {
+    const SurfacePoint& x = points[static_cast<size_t>(o)];
+    Vec3 src[4];
+    std::vector<int> occluders;
+    long long rays = 0;
+    for (int j = 0; j < mesh.size(); ++j) {
+      const Patch& pj = mesh.patches[j];
+      // One-sided: the patch must rise above the point's plane and face the point.
+      double above = -1.0;
+      for (int k = 0; k < pj.corner_count; ++k) above = std::max(above, x.normal.dot(mesh.points[pj.corners[k]] - x.position));
+      if (above <= tol || pj.normal.dot(x.position - pj.centroid) <= tol) continue;
+      mesh.polygon(j, src);
+      const Receiver receiver{x.position, x.normal};
+      // Lambert's closed form, kernels/lambert.h (Stark 2000 = seed 002 eq. 3).
+      double f = lambert_form_factor(receiver, src, pj.corner_count);
+      if (f > 0.0 && vis) {
+        vis->culler().occluders(&x.position, 1, src, pj.corner_count, occluders);
+        if (!occluders.empty())
+          f = vis->point_to_patch(receiver, src, pj.corner_count, pj.normal, f, occluders, opt.rays,
+                                  pair_stream(opt.seed ^ 0x9017ULL, uint64_t(o), uint64_t(j)), rays);
+      }
+      out(o, agg.of_patch[j]) += f;
+    }
+  }
+  return out;
+}
+
+}  // namespace photometria

@@ -1,0 +1,110 @@
+// View factors for radiative heat transfer: patch factors aggregated to groups / faces / patches,
+// their checks, optional reciprocity/closure enforcement, and point-to-surface factors.
+//
+// compute_view_factors() runs load-independent stages of the solve pipeline (patching,
+// visibility, form-factor fill; see pipeline/solve.h and formfactors/formfactors.h) with
+// settings chosen for accuracy rather than speed: per-pair integration to a relative tolerance of
+// 1e-7 for pairs nothing can block, and visibility `auto` (none in a convex enclosure, exact
+// clipping up to kAutoExactMaxFaces faces, rays beyond).
+//
+// Aggregation (area-weighted, the definition of a view factor between unions of surfaces):
+//   F_IJ = (1 / A_I) Σ_{i∈I} A_i Σ_{j∈J} F_ij,   A_I = Σ_{i∈I} A_i
+// (Modest, "Radiative Heat Transfer", 3rd ed., 2013, eq. 4.19 / Howell's catalog rule for
+// composite surfaces). It keeps reciprocity (A_I F_IJ = A_J F_JI) and row sums exactly.
+#pragma once
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "formfactors/formfactors.h"
+#include "patching/patching.h"
+#include "pipeline/solve.h"
+#include "scene/scene.h"
+
+namespace photometria {
+
+// Row-major dense matrix of view factors, row = emitting (from) surface.
+using ViewFactorMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+enum class AggregateLevel { Group, Face, Patch };
+
+struct ViewFactorOptions {
+  PatchingOptions patching;           // default: no subdivision beyond the input faces
+  double accuracy = 1e-7;             // per-pair relative tolerance for pairs nothing can block
+  int quadrature = 6;                 // receiver rule order for pairs needing visibility
+  VisibilityMode visibility = VisibilityMode::Auto;
+  int rays = 576;                     // rays per (receiver point, patch) in ray mode
+  uint64_t seed = 1;
+};
+
+// Patch-level result of the fill.
+struct PatchViewFactors {
+  PatchMesh mesh;
+  FormFactorMatrix F;                 // N × N patch factors (row i = from patch i)
+  FillStats fill;
+  std::string visibility_mode;        // "none", "exact" or "rays"
+  std::string visibility_reason;
+  std::shared_ptr<const Visibility> visibility;  // null when visibility_mode is "none"
+};
+
+// Throws photometria::Error(BadInput) when the scene has no patch.
+PatchViewFactors compute_view_factors(const Scene& scene, const ViewFactorOptions& options);
+
+// The surfaces of the requested level: one entry per output row/column.
+struct Aggregation {
+  std::vector<std::string> names;  // group name, "face <source_face>" or "patch <i>"
+  std::vector<double> areas;       // m², Σ of member patch areas
+  std::vector<int> of_patch;       // per patch: index of its surface (size N)
+  int size() const { return static_cast<int>(names.size()); }
+};
+// Groups without patches (obstruction-only groups) are left out.
+Aggregation make_aggregation(const Scene& scene, const PatchMesh& mesh, AggregateLevel level);
+// F_IJ of the formula above; G × G.
+ViewFactorMatrix aggregate(const FormFactorMatrix& F, const PatchMesh& mesh, const Aggregation& agg);
+
+// Checks of a view-factor matrix with surface areas `areas` (size n).
+struct MatrixChecks {
+  double min_row_sum = 0.0, max_row_sum = 0.0, mean_row_sum = 0.0;
+  int worst_row = 0;                 // row whose sum is farthest from 1
+  double reciprocity_error = 0.0;    // max_{i<j} |A_i F_ij − A_j F_ji| / min(A_i, A_j)
+  double min_entry = 0.0, max_entry = 0.0;
+};
+MatrixChecks check_matrix(const ViewFactorMatrix& F, const std::vector<double>& areas);
+
+enum class Enforcement { None, Reciprocity, Closure, Both };
+
+struct EnforcementReport {
+  MatrixChecks before, after;
+  int iterations = 0;               // scaling sweeps (closure / both)
+  double max_change = 0.0;          // max |F_new − F_old| over entries
+};
+// Modifies F in place (see viewfactors.cpp for the method and its citations):
+//   reciprocity: A·F replaced by its symmetric part (the nearest symmetric matrix in the
+//                Frobenius norm); row sums change by the reciprocity error only;
+//   closure:     each row divided by its sum (rows with sum 0 are left alone);
+//   both:        symmetric part, then symmetric diagonal scaling D (A·F) D with row sums A_i
+//                (symmetric Sinkhorn–Knopp), so A·F stays symmetric and every row sums to 1.
+// `tolerance`: closure iterations stop when every |row sum − 1| <= tolerance.
+EnforcementReport enforce(ViewFactorMatrix& F, const std::vector<double>& areas, Enforcement mode,
+                          double tolerance = 1e-14, int max_iterations = 1000);
+
+// A point with its unit normal (front side receives).
+struct SurfacePoint {
+  std::string id;
+  Vec3 position = Vec3::Zero();
+  Vec3 normal = Vec3::UnitZ();
+};
+// Points from JSON ({"points": [{"id", "position": [x,y,z], "normal": [x,y,z]}, ...]} or a bare
+// array of such objects) or CSV (x,y,z,nx,ny,nz per line, optional id as a 7th column, an
+// optional header line starting with a letter). Normals are normalised; zero normals refused.
+std::vector<SurfacePoint> load_points(const std::string& path);
+
+// P × G: F(dA_x -> surface I) = Σ_{j∈I} F_vis(dA_x -> P_j), Lambert's closed form
+// (kernels/lambert.h, seed 002 eq. 3) with visibility as in the vertex gather of the solve
+// (shaft culling, then exact clipping or rays). `visibility` may be null (nothing blocks).
+ViewFactorMatrix point_view_factors(const std::vector<SurfacePoint>& points, const PatchMesh& mesh,
+                                    const Aggregation& agg, const Visibility* visibility,
+                                    const ViewFactorOptions& options);
+
+}  // namespace photometria
