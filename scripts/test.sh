@@ -8,7 +8,10 @@ scripts/build.sh
 ctest --test-dir build --output-on-failure -j"$(nproc)"
 # A crash-only smoke run of the benchmark (no timing assertions).
 build/bench/bench_kernels --benchmark_min_time=0.01 >/dev/null
-BUILD_DIR=build-asan BUILD_TYPE=RelWithDebInfo scripts/build.sh -DPHOTOMETRIA_SANITIZE=ON -DPHOTOMETRIA_BENCHMARKS=OFF
+# Warnings are already errors in the build above; GCC's -O2 + sanitizer instrumentation raises
+# false maybe-uninitialized warnings inside OpenMesh's headers, so they are not fatal here.
+BUILD_DIR=build-asan BUILD_TYPE=RelWithDebInfo scripts/build.sh -DPHOTOMETRIA_SANITIZE=ON -DPHOTOMETRIA_BENCHMARKS=OFF \
+  -DPHOTOMETRIA_WERROR=OFF
 ASAN_OPTIONS=detect_leaks=0 UBSAN_OPTIONS=print_stacktrace=1 \
   ctest --test-dir build-asan --output-on-failure -j"$(nproc)"
 # libFuzzer targets for the loaders (tests/fuzz: OBJ+MTL, JSON scene, JSON queries), built with
