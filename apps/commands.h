@@ -13,3 +13,4 @@ struct Command {
 Command add_solve_command(CLI::App& app);
 Command add_validate_command(CLI::App& app);
 Command add_formfactor_command(CLI::App& app);
+Command add_viewfactors_command(CLI::App& app);

@@ -12,7 +12,8 @@ int main(int argc, char** argv) {
   CLI::App app{"Photometria: radiosity and form factors with Lambert's closed form"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "photometria 0.1.0");
-  const std::vector<Command> commands = {add_solve_command(app), add_validate_command(app), add_formfactor_command(app)};
+  const std::vector<Command> commands = {add_solve_command(app), add_validate_command(app), add_formfactor_command(app),
+                                         add_viewfactors_command(app)};
 
   try {
     app.parse(argc, argv);

@@ -124,4 +124,24 @@ SparseWriteStats write_view_factors(const std::string& path, ViewFactorFormat fo
   return st;
 }
 
+void write_point_factors(const std::string& path, const std::vector<std::string>& point_ids,
+                         const std::vector<std::string>& surface_names, const ViewFactorRows& P) {
+  AtomicOutput atomic(path);
+  {
+    std::ofstream out(atomic.temp_path(), std::ios::binary | std::ios::trunc);
+    if (!out) throw_io("cannot write '" + path + "'");
+    std::string line = "point";
+    for (const std::string& s : surface_names) line.append(1, ',').append(csv_cell(s));
+    out << line << "\n";
+    for (int i = 0; i < static_cast<int>(P.rows()); ++i) {
+      line = csv_cell(point_ids[static_cast<size_t>(i)]);
+      for (int j = 0; j < static_cast<int>(P.cols()); ++j) line.append(1, ',').append(g17(P(i, j)));
+      out << line << "\n";
+    }
+    out.flush();
+    if (!out) throw_io("cannot write '" + path + "' (disk full?)");
+  }
+  atomic.commit();
+}
+
 }  // namespace photometria

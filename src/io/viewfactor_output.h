@@ -41,6 +41,11 @@ SparseWriteStats write_view_factors(const std::string& path, ViewFactorFormat fo
                                     const ViewFactorRows& F, double threshold = 0.0,
                                     const std::string& title = "photometria view factors");
 
+// Point-to-surface factors (P points × G surfaces) as CSV: header "point,<name_1>,...,<name_G>",
+// then "<id>,F_1,...,F_G" per point, 17 significant digits. Throws Error(Io).
+void write_point_factors(const std::string& path, const std::vector<std::string>& point_ids,
+                         const std::vector<std::string>& surface_names, const ViewFactorRows& P);
+
 // "csv", "sparse", "binary", "view3d"; false when unknown.
 bool view_factor_format_from_name(const std::string& name, ViewFactorFormat& out);
 

@@ -5,6 +5,8 @@
 //        usemtl, g / o names become groups),
 //   .off .ply .stl .om (through OpenMesh; every face gets LoadOptions' default material),
 //   .json scene files (meshes + material overrides by OBJ material or group name + settings).
+//   .vs3 View3D input (load_view3d.cpp: V/S/O records; each surface is a group; O surfaces are
+//        obstruction-only faces),
 // and cleans the geometry so that later stages can trust it:
 //   - coincident vertices are welded (distance <= weld_tolerance × bounding-box diagonal),
 //   - zero-area faces are dropped and counted,

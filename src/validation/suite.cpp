@@ -11,7 +11,10 @@
 #include "formfactors/formfactors.h"
 #include "formfactors/pair_integration.h"
 #include "io/atomic_file.h"
+#include "kernels/distant.h"
 #include "kernels/lambert.h"
+#include "kernels/sphere.h"
+#include "visibility/visibility.h"
 #include "patching/patching.h"
 #include "solver/gauss_seidel.h"
 #include "util/error.h"
@@ -68,7 +71,10 @@ class Suite {
   std::vector<ValidationRow> run() {
     warm_up();
     point_polygon();
+    lights();
+    occluded_point();
     patch_patch();
+    coaxial_disks();
     patch_patch_adaptive();
     cube_floor_emitting();
     white_furnace();
@@ -106,6 +112,99 @@ class Suite {
     ValidationRow row{"point-to-polygon (Lambert)", "closed form", 0, 1, 0, 0, 0, since(t0)};
     err.into(row);
     emit(row);
+  }
+
+  // Sphere lights (Howell B-39/B-43, incl. the horizon-crossing branch) and distant-light cones.
+  void lights() {
+    ErrorStats err;
+    const auto t0 = Clock::now();
+    for (const auto& c : refs_.at("cases")) {
+      const auto& g = c.at("geometry");
+      if (c.at("kind") == "sphere_light") {
+        const Receiver r{vec(g["receiver"]["point"]), vec(g["receiver"]["normal"]).normalized()};
+        err.add(sphere_form_factor(r, vec(g["sphere"]["center"]), g["sphere"]["radius"].get<double>()), number(c["value"]));
+      } else if (c.at("kind") == "distant_light") {
+        const Receiver r{vec(g["receiver"]["point"]), vec(g["receiver"]["normal"]).normalized()};
+        const double angle_deg = 2.0 * g["cone"]["half_angle_rad"].get<double>() * 180.0 / M_PI;
+        err.add(distant_form_factor(r, vec(g["cone"]["axis"]).normalized(), angle_deg), number(c["value"]));
+      }
+    }
+    ValidationRow row{"sphere and distant lights", "closed form", 0, 1, 0, 0, 0, since(t0)};
+    err.into(row);
+    emit(row);
+  }
+
+  // A receiver point under a unit square source (z = 1) with a parallel 0.4 × 0.4 blocker at
+  // z = 0.5 centred over the point: seen from the point, the blocker hides the centred
+  // 0.8 × 0.8 square of the source, so F = F(source) − F(shadow), both by Lambert (superposition).
+  // Ray mode at a ladder of ray counts (RMS over 16 seeds), and the exact mode.
+  void occluded_point() {
+    const Polygon source = {{-0.5, -0.5, 1}, {-0.5, 0.5, 1}, {0.5, 0.5, 1}, {0.5, -0.5, 1}};      // faces down
+    const Polygon shadow = {{-0.4, -0.4, 1}, {-0.4, 0.4, 1}, {0.4, 0.4, 1}, {0.4, -0.4, 1}};
+    const Receiver recv{Vec3(0, 0, 0), Vec3::UnitZ()};
+    const double unoccluded = lambert_form_factor(recv, source);
+    const double want = unoccluded - lambert_form_factor(recv, shadow);
+    Scene s = two_polygon_scene({{-0.2, -0.2, 0.5}, {0.2, -0.2, 0.5}, {0.2, 0.2, 0.5}, {-0.2, 0.2, 0.5}},
+                                {{-0.2, -0.2, 0.5}, {-0.2, 0.2, 0.5}, {0.2, 0.2, 0.5}, {0.2, -0.2, 0.5}});
+    const Vec3 n_src = -Vec3::UnitZ();
+    for (VisibilityMethod method : {VisibilityMethod::Rays, VisibilityMethod::Exact}) {
+      const Visibility vis(s, method);
+      std::vector<int> occ;
+      vis.culler().occluders(&recv.point, 1, source.data(), 4, occ);
+      const std::vector<int> ladder = method == VisibilityMethod::Exact ? std::vector<int>{0}
+                                      : opt_.quick                     ? std::vector<int>{16, 256}
+                                                                       : std::vector<int>{16, 64, 256, 1024, 4096};
+      for (int rays : ladder) {
+        ErrorStats err;
+        const auto t0 = Clock::now();
+        long long cast = 0;
+        const int seeds = method == VisibilityMethod::Exact ? 1 : 16;
+        for (int seed = 0; seed < seeds; ++seed)
+          err.add(vis.point_to_patch(recv, source.data(), 4, n_src, unoccluded, occ, rays, pair_stream(seed, 7, 11), cast),
+                  want);
+        ValidationRow row{"occluded point (blocker, superposition)",
+                          method == VisibilityMethod::Exact ? "exact" : "rays=" + std::to_string(rays), 0, 1, 0, 0, 0,
+                          since(t0) / seeds};
+        err.into(row);
+        emit(row);
+      }
+    }
+  }
+
+  // Coaxial parallel disks (Howell C-41) as inscribed m-gons with the per-pair rule: the error is
+  // the tessellation's and falls as m grows.
+  void coaxial_disks() {
+    for (int m : opt_.quick ? std::vector<int>{8, 16} : std::vector<int>{8, 16, 32, 64, 128}) {
+      ErrorStats err;
+      const auto t0 = Clock::now();
+      for (const auto& c : refs_.at("cases")) {
+        if (c.at("id").get<std::string>().rfind("C41", 0) != 0) continue;
+        const auto& g = c.at("geometry");
+        auto disk = [&](const nlohmann::json& d) {
+          const Vec3 centre = vec(d["center"]), n = vec(d["normal"]).normalized();
+          const Vec3 u = (std::abs(n.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY()).cross(n).normalized(), w = n.cross(u);
+          // Equal-area m-gon: the circumradius that keeps the disk's area (tessellation error O(m^-4)).
+          const double r = d["radius"].get<double>() * std::sqrt(2 * M_PI / (m * std::sin(2 * M_PI / m)));
+          Polygon p;
+          for (int k = 0; k < m; ++k)
+            p.push_back(centre + r * (std::cos(2 * M_PI * k / m) * u + std::sin(2 * M_PI * k / m) * w));
+          return p;  // counter-clockwise about n
+        };
+        const Polygon p1 = disk(g["disk1"]), p2 = disk(g["disk2"]);
+        // The per-pair rule takes triangles and quads: fan the receiver, keep the source whole.
+        double f = 0.0;
+        for (int k = 1; k + 1 < m; ++k) {
+          const Vec3 tri[3] = {p1[0], p1[k], p1[k + 1]};
+          const PairResult r = pair_form_factor(tri, 3, vec(g["disk1"]["normal"]).normalized(), p2.data(), m,
+                                                vec(g["disk2"]["normal"]).normalized(), 1e-10);
+          f += r.form_factor * polygon_area({tri[0], tri[1], tri[2]});
+        }
+        err.add(f / polygon_area(p1), number(c["value"]));
+      }
+      ValidationRow row{"coaxial disks (Howell C-41), m-gons", "m=" + std::to_string(m), 0, 0, 0, 0, 0, since(t0)};
+      err.into(row);
+      emit(row);
+    }
   }
 
   // F(1 -> 2) between two polygons meshed n × n with q × q receiver points, against Howell
