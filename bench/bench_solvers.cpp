@@ -23,7 +23,7 @@ namespace {
 
 struct Furnace {
   pm::PatchMesh mesh;
-  pm::FormFactorMatrix F;
+  pm::FormFactors F;
   Eigen::VectorXd areas;
 };
 

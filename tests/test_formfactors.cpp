@@ -49,7 +49,7 @@ TEST(FormFactors, CubeOnePatchPerWallConvergesWithQuadrature) {
     FillStats stats;
     FillOptions opt;
     opt.quadrature = order;
-    const FormFactorMatrix F = fill_form_factors(mesh, opt, stats);
+    const FormFactorMatrix F = fill_form_factors(mesh, opt, stats).to_dense();
     EXPECT_EQ(stats.pairs_backfacing, 0);
     ChannelMatrix E = ChannelMatrix::Zero(6, 3), rho = ChannelMatrix::Constant(6, 3, 0.5), B;
     E.row(0).setOnes();
@@ -73,7 +73,7 @@ TEST(FormFactors, ClosedRoomRowsSumToOneForAnyQuadrature) {
     FillStats stats;
     FillOptions opt;
     opt.quadrature = order;
-    const FormFactorMatrix F = fill_form_factors(mesh, opt, stats);
+    const FormFactorMatrix F = fill_form_factors(mesh, opt, stats).to_dense();
     EXPECT_GT(stats.pairs_backfacing, 0);  // coplanar patches of one wall
     for (int i = 0; i < mesh.size(); ++i) EXPECT_NEAR(F.row(i).sum(), 1.0, 1e-12);
   }
@@ -96,7 +96,7 @@ TEST(FormFactors, RoomWithTableIsReciprocalAndBounded) {
     opt.visibility = &vis;
     opt.rays = 64;
     FillStats stats;
-    const FormFactorMatrix F = fill_form_factors(mesh, opt, stats);
+    const FormFactorMatrix F = fill_form_factors(mesh, opt, stats).to_dense();
     EXPECT_EQ(stats.rays_cast > 0, method == VisibilityMethod::Rays);
     EXPECT_GT(stats.pairs_occluded, 0);
     double worst = 0;

@@ -10,7 +10,7 @@ using namespace photometria;
 namespace {
 FormFactorMatrix furnace_matrix(const PatchMesh& mesh) {
   FillStats stats;
-  return fill_form_factors(mesh, FillOptions{}, stats);
+  return fill_form_factors(mesh, FillOptions{}, stats).to_dense();
 }
 }  // namespace
 

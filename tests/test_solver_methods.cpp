@@ -28,7 +28,7 @@ Room room(double max_edge) {
   Room r;
   r.mesh = subdivide(builders::unit_cube(), {max_edge, 0.0});
   FillStats stats;
-  r.F = fill_form_factors(r.mesh, FillOptions{}, stats);
+  r.F = fill_form_factors(r.mesh, FillOptions{}, stats).to_dense();
   r.areas.resize(r.mesh.size());
   for (int i = 0; i < r.mesh.size(); ++i) r.areas[i] = r.mesh.patches[i].area;
   return r;

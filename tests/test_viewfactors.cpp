@@ -136,7 +136,7 @@ void check_cube(int n) {
       if (want > 1e-3) worst_rel = std::max(worst_rel, std::abs(got - want) / want);
       else worst_abs_small = std::max(worst_abs_small, std::abs(got - want));
     }
-    worst_row = std::max(worst_row, std::abs(r.F.row(i).sum() - 1.0));
+    worst_row = std::max(worst_row, std::abs(r.F.row_sum(i) - 1.0));
   }
   EXPECT_LE(worst_rel, 1e-6) << "n = " << n;
   EXPECT_LE(worst_abs_small, 1e-9) << "n = " << n;
@@ -185,7 +185,7 @@ TEST(ViewFactors, GroupAggregationGivesTheWallMatrix) {
 TEST(ViewFactors, EnforcementBothGivesSymmetricAFAndUnitRows) {
   const PatchViewFactors r = cube_factors(4);
   const Aggregation agg = make_aggregation(builders::unit_cube(), r.mesh, AggregateLevel::Patch);
-  ViewFactorMatrix F = r.F;
+  ViewFactorMatrix F = r.F.to_dense();
   // Perturb so that there is something to fix: 1e-3 relative noise, deterministic.
   for (int i = 0; i < F.rows(); ++i)
     for (int j = 0; j < F.cols(); ++j) F(i, j) *= 1.0 + 1e-3 * std::sin(1.0 + 7.0 * i + 3.0 * j);

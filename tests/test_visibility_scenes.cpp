@@ -25,7 +25,7 @@ FormFactorMatrix fill(const PatchMesh& mesh, const Visibility* vis, FillStats& s
   FillOptions opt;
   opt.quadrature = quadrature;
   opt.visibility = vis;
-  return fill_form_factors(mesh, opt, stats);
+  return fill_form_factors(mesh, opt, stats).to_dense();
 }
 
 std::string mesh_path(const std::string& name) { return std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/" + name; }

@@ -29,9 +29,9 @@ bool facing_away(const PatchMesh& mesh, int i, int j, double tol) {
   return front_of_b <= tol;
 }
 
-FormFactorMatrix fill_form_factors(const PatchMesh& mesh, const FillOptions& options, FillStats& stats) {
+FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options, FillStats& stats) {
   const int n = mesh.size();
-  FormFactorMatrix F = FormFactorMatrix::Zero(n, n);
+  FormFactors F(n, options.layout == MatrixLayout::Sparse ? MatrixLayout::Sparse : MatrixLayout::Dense, options.precision);
   const double tol = plane_tolerance(mesh);
   const Visibility* vis = options.visibility;
   const bool rays_mode = vis && vis->method() == VisibilityMethod::Rays;
@@ -57,6 +57,7 @@ FormFactorMatrix fill_form_factors(const PatchMesh& mesh, const FillOptions& opt
     if (rays_mode) ray_part.assign(size_t(nq) * n, 0.0);
     std::vector<double> unoccluded(nq);
     std::vector<int> occluders;
+    std::vector<double> row(n, 0.0);  // F_i,· before it is stored
     for (int j = 0; j < n; ++j) {
       if (j == i || facing_away(mesh, i, j, tol)) { backfacing += (j != i); continue; }
       const Patch& pj = mesh.patches[j];
@@ -68,7 +69,7 @@ FormFactorMatrix fill_form_factors(const PatchMesh& mesh, const FillOptions& opt
         kernels += r.evaluations;
         gauss += r.rule == PairRule::Gauss;
         adaptive += r.rule == PairRule::Adaptive;
-        F(i, j) = r.form_factor;
+        row[j] = r.form_factor;
         point_sum[0] += r.form_factor;  // the row sum stands in for the per-point check
         continue;
       }
@@ -109,7 +110,7 @@ FormFactorMatrix fill_form_factors(const PatchMesh& mesh, const FillOptions& opt
         }
       }
       for (int q = 0; q < nq; ++q) point_sum[q] += unoccluded[q];
-      F(i, j) = f;
+      row[j] = f;
     }
     // A receiver point sees at most its hemisphere: Σ_j F_vis(x_q -> P_j) <= 1. Scale the
     // ray-estimated terms of a point whose sum exceeds that (see the header).
@@ -125,9 +126,10 @@ FormFactorMatrix fill_form_factors(const PatchMesh& mesh, const FillOptions& opt
       ++rescaled;
       for (int j = 0; j < n; ++j) {
         const double v = ray_part[size_t(q) * n + j];
-        if (v > 0.0) F(i, j) = std::max(0.0, F(i, j) - rule[q].weight * v * (1.0 - keep));
+        if (v > 0.0) row[j] = std::max(0.0, row[j] - rule[q].weight * v * (1.0 - keep));
       }
     }
+    F.set_row(i, row.data());
     const int done = ++rows_done;
     if (options.progress && omp_get_thread_num() == 0) options.progress(double(done) / n);
   }
@@ -147,28 +149,41 @@ FormFactorMatrix fill_form_factors(const PatchMesh& mesh, const FillOptions& opt
   return F;
 }
 
-FormFactorChecks check_form_factors(const PatchMesh& mesh, const FormFactorMatrix& F) {
+FormFactorChecks check_form_factors(const PatchMesh& mesh, const FormFactors& F) {
   FormFactorChecks c;
   const int n = mesh.size();
   if (n == 0) return c;
-  c.min_entry = 1.0;
-  c.min_row_sum = c.max_row_sum = F.row(0).sum();
+  double min_entry = 1.0, max_entry = 0.0, min_row = F.row_sum(0), max_row = min_row, recip = 0.0;
+  const bool sparse = F.layout() == MatrixLayout::Sparse;
+#pragma omp parallel for schedule(dynamic, 16) reduction(min : min_entry, min_row) reduction(max : max_entry, max_row, recip)
   for (int i = 0; i < n; ++i) {
-    const double row = F.row(i).sum();
-    c.min_row_sum = std::min(c.min_row_sum, row);
-    c.max_row_sum = std::max(c.max_row_sum, row);
+    double row = 0.0;
+    int stored = 0;
     const double ai = mesh.patches[i].area;
-    for (int j = 0; j < n; ++j) {
-      if (j == i) continue;
-      c.min_entry = std::min(c.min_entry, F(i, j));
-      c.max_entry = std::max(c.max_entry, F(i, j));
-      if (j > i) {
+    F.for_each_in_row(i, [&](int j, double f) {
+      row += f;
+      if (j == i) return;
+      ++stored;
+      min_entry = std::min(min_entry, f);
+      max_entry = std::max(max_entry, f);
+      // Each unordered pair once: from its smaller index, or from the row that stores it when
+      // the transposed entry is a (sparse) zero.
+      if (j < i && !sparse) return;
+      const double fji = F(j, i);
+      if (j > i || fji == 0.0) {
         const double aj = mesh.patches[j].area;
-        c.reciprocity_error = std::max(c.reciprocity_error, std::abs(ai * F(i, j) - aj * F(j, i)) / std::min(ai, aj));
+        recip = std::max(recip, std::abs(ai * f - aj * fji) / std::min(ai, aj));
       }
-    }
+    });
+    if (sparse && stored < n - 1) min_entry = std::min(min_entry, 0.0);  // unstored entries are 0
+    min_row = std::min(min_row, row);
+    max_row = std::max(max_row, row);
   }
-  if (n == 1) c.min_entry = 0.0;
+  c.min_entry = n == 1 ? 0.0 : min_entry;
+  c.max_entry = max_entry;
+  c.min_row_sum = min_row;
+  c.max_row_sum = max_row;
+  c.reciprocity_error = recip;
   return c;
 }
 

@@ -20,13 +20,11 @@
 #include <cstdint>
 #include <functional>
 
+#include "formfactors/storage.h"
 #include "patching/patching.h"
 #include "visibility/visibility.h"
 
 namespace photometria {
-
-// Dense N × N, row i = receiver patch i. Row-major so that a Gauss–Seidel sweep reads rows.
-using FormFactorMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
 struct FillOptions {
   int quadrature = 1;                        // receiver rule order (1 = centroid)
@@ -37,6 +35,10 @@ struct FillOptions {
   int rays = 576;                            // rays per (receiver point, source patch) in ray mode
   uint64_t seed = 1;                         // ray sampling seed (results repeat for a seed)
   std::function<void(double)> progress;      // called with the fraction done (from one thread)
+  // Storage of the result (formfactors/storage.h); Auto is resolved by the caller from the
+  // expected non-zero count (pipeline/memory.h), here it means dense.
+  MatrixLayout layout = MatrixLayout::Dense;
+  MatrixPrecision precision = MatrixPrecision::Double;
 };
 
 struct FillStats {
@@ -61,13 +63,15 @@ struct FormFactorChecks {
   double min_row_sum = 0.0, max_row_sum = 0.0;    // Σ_j F_ij; <= 1, and 1 in a closed scene
   double reciprocity_error = 0.0;  // max over pairs |A_i F_ij − A_j F_ji| / min(A_i, A_j)
 };
-FormFactorChecks check_form_factors(const PatchMesh& mesh, const FormFactorMatrix& F);
+FormFactorChecks check_form_factors(const PatchMesh& mesh, const FormFactors& F);
 
 // True when the pair (receiver i, source j) cannot exchange light: j on/below i's plane or i
 // on/behind j's plane (with a tolerance of `tol` metres).
 bool facing_away(const PatchMesh& mesh, int i, int j, double tol);
 
-FormFactorMatrix fill_form_factors(const PatchMesh& mesh, const FillOptions& options, FillStats& stats);
+// Rows are computed into a per-thread dense buffer and stored with FormFactors::set_row, so the
+// matrix never exists in a larger layout than the one asked for.
+FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options, FillStats& stats);
 
 // Geometric tolerance for plane tests: a few ulps of the scene's size.
 double plane_tolerance(const PatchMesh& mesh);

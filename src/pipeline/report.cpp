@@ -69,7 +69,8 @@ nlohmann::json summary_json(const Scene& scene, const SolveSummary& s) {
   j["lights"] = s.lights;
   j["pair_rules"] = {{"accuracy", s.accuracy}, {"fixed", s.fill.pairs_fixed_rule}, {"gauss", s.fill.pairs_gauss},
                      {"adaptive", s.fill.pairs_adaptive}, {"kernel_evaluations", s.fill.kernel_evaluations}};
-  j["matrix"] = {{"storage", s.matrix_storage}, {"bytes", s.matrix_bytes}};
+  j["matrix"] = {{"storage", s.matrix_storage}, {"reason", s.matrix_storage_reason}, {"bytes", s.matrix_bytes},
+                 {"estimated_bytes", s.estimated_bytes}};
   j["memory_estimate"] = {{"dense_bytes", s.memory.dense_bytes}, {"sparse_bytes", s.memory.sparse_bytes},
                           {"nonzero_pairs", s.memory.nonzero_pairs}, {"per_patch_bytes", s.memory.per_patch_bytes},
                           {"limit_bytes", s.memory_limit_bytes}, {"limit_source", s.memory_limit_source}};
@@ -121,8 +122,8 @@ std::string summary_table(const Scene& scene, const SolveSummary& s) {
                       << " fixed-rule (occluded)\n";
   else
     row("quadrature") << s.quadrature << (s.quadrature == 1 ? " (centroid)" : " (Gauss)") << "\n";
-  row("matrix") << s.matrix_storage << ", " << std::setprecision(3) << s.matrix_bytes / 1048576.0 << " MiB\n";
-  row("memory estimate") << format_bytes(s.memory.dense_bytes) << " dense, " << format_bytes(s.memory.sparse_bytes)
+  row("matrix") << s.matrix_storage << ", " << format_bytes(s.matrix_bytes) << " (" << s.matrix_storage_reason << ")\n";
+  row("memory estimate") << format_bytes(s.estimated_bytes) << " for this run; " << format_bytes(s.memory.dense_bytes) << " dense, " << format_bytes(s.memory.sparse_bytes)
                          << " sparse (" << format_count(s.memory.nonzero_pairs) << " pairs facing); limit "
                          << format_bytes(s.memory_limit_bytes) << " (" << s.memory_limit_source << ")\n";
   row("solver") << method_name(s.solver.method) << ", " << s.solver.iterations

@@ -4,6 +4,7 @@
 #include <sys/resource.h>
 
 #include <chrono>
+#include <iomanip>
 #include <cmath>
 #include <memory>
 #include <sstream>
@@ -124,9 +125,10 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
   r.summary.vertex_pairs_culled = culled;
 }
 
-EnergyBalance energy_balance(const FormFactorMatrix& F, const ChannelMatrix& direct, const SolveResult& r) {
+EnergyBalance energy_balance(const FormFactors& F, const ChannelMatrix& direct, const SolveResult& r) {
   EnergyBalance e;
-  const Eigen::VectorXd row_sums = F.rowwise().sum();
+  Eigen::VectorXd row_sums(F.rows());
+  for (int i = 0; i < F.rows(); ++i) row_sums[i] = F.row_sum(i);
   for (int i = 0; i < r.mesh.size(); ++i) {
     const double a = r.mesh.patches[i].area;
     for (int c = 0; c < 3; ++c) {
@@ -145,16 +147,29 @@ EnergyBalance energy_balance(const FormFactorMatrix& F, const ChannelMatrix& dir
 }
 
 // Estimates the memory of the solve and refuses when the storage in use would not fit.
-void check_memory(const PatchMesh& mesh, const SolveOptions& opt, SolveSummary& s) {
+// Picks the matrix layout from the estimate and refuses a run that cannot fit (memory.h).
+MatrixLayout check_memory(const PatchMesh& mesh, const SolveOptions& opt, SolveSummary& s) {
   s.memory = estimate_memory(mesh, opt.seed);
+  const double n = mesh.size(), nnz = double(s.memory.nonzero_pairs);
+  const MatrixLayout layout = choose_layout(opt.matrix_layout, opt.matrix_precision, n, nnz);
+  s.matrix_storage = std::string(layout_name(layout)) + " " + precision_name(opt.matrix_precision);
+  if (opt.matrix_layout != MatrixLayout::Auto) {
+    s.matrix_storage_reason = "requested (--matrix " + std::string(layout_name(layout)) + ")";
+  } else {
+    std::ostringstream why;
+    why << "auto: " << std::setprecision(3) << (n > 1 ? 100.0 * nnz / (n * (n - 1)) : 0.0)
+        << "% of pairs face each other, so " << layout_name(layout) << " is smaller";
+    s.matrix_storage_reason = why.str();
+  }
+  s.estimated_bytes = matrix_bytes(layout, opt.matrix_precision, n, nnz) + s.memory.per_patch_bytes * n;
   s.memory_limit_bytes = opt.max_memory_bytes > 0 ? opt.max_memory_bytes : available_memory_bytes();
   s.memory_limit_source = opt.max_memory_bytes > 0 ? "--max-memory" : "MemAvailable";
-  if (s.memory_limit_bytes <= 0 || s.memory.dense_bytes <= s.memory_limit_bytes) return;
+  if (s.memory_limit_bytes <= 0 || s.estimated_bytes <= s.memory_limit_bytes) return layout;
   const std::string limit = opt.max_memory_bytes > 0
                                 ? "--max-memory is " + format_bytes(s.memory_limit_bytes)
                                 : "only " + format_bytes(s.memory_limit_bytes) + " is available (MemAvailable; set --max-memory to override)";
-  throw_bad_input("needs " + format_bytes(s.memory.dense_bytes) + " for " + format_count(s.patches) + " patches (" +
-                  s.matrix_storage + " form factors) but " + limit + "; raise --max-edge");
+  throw_bad_input("needs " + format_bytes(s.estimated_bytes) + " for " + format_count(s.patches) + " patches (" +
+                  s.matrix_storage + " form factors) but " + limit + "; raise --max-edge or try --matrix-precision float");
 }
 
 }  // namespace
@@ -223,10 +238,11 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
   fill.progress = progress("form factors");
   s.quadrature = opt.quadrature;
   s.accuracy = opt.accuracy;
-  s.matrix_storage = "dense double";
-  s.matrix_bytes = double(s.patches) * s.patches * sizeof(double);
-  check_memory(r.mesh, opt, s);
-  const FormFactorMatrix F = fill_form_factors(r.mesh, fill, s.fill);
+  fill.layout = check_memory(r.mesh, opt, s);
+  fill.precision = opt.matrix_precision;
+  const FormFactors F = fill_form_factors(r.mesh, fill, s.fill);
+  s.matrix_storage = F.description();
+  s.matrix_bytes = F.bytes();
   // A convex enclosure (auto mode): the scene-wide test culled every pair's shaft at once.
   if (!vis && opt.visibility == VisibilityMode::Auto) s.fill.pairs_culled = s.fill.pairs_evaluated;
   s.checks = check_form_factors(r.mesh, F);
@@ -258,7 +274,10 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
       << s.solver.residual << " > tolerance " << opt.solver.tolerance << "); raise --max-iterations";
     throw Error(ErrorKind::NotConverged, m.str());
   }
-  r.irradiance = F * r.radiosity + direct;
+  r.irradiance = direct;
+#pragma omp parallel for schedule(static)
+  for (int i = 0; i < s.patches; ++i)
+    for (int c = 0; c < 3; ++c) r.irradiance(i, c) += F.row_dot(i, r.radiosity.col(c));
   s.energy = energy_balance(F, direct, r);
   timer.lap("solve");
 

@@ -40,6 +40,10 @@ struct SolveOptions {
   // Refuse (BadInput) before the form-factor fill when the estimated memory (pipeline/memory.h,
   // the storage actually used) exceeds this many bytes; 0 = MemAvailable from /proc/meminfo.
   double max_memory_bytes = 0.0;
+  // Form-factor storage (formfactors/storage.h): Auto = dense or sparse, whichever the estimated
+  // non-zero count makes smaller; float halves the matrix (entries rounded to 2^-24 relative).
+  MatrixLayout matrix_layout = MatrixLayout::Auto;
+  MatrixPrecision matrix_precision = MatrixPrecision::Double;
   std::function<void(const std::string& stage, double fraction)> progress;  // optional
 };
 
@@ -70,8 +74,10 @@ struct SolveSummary {
   long long vertex_pairs_evaluated = 0;
   long long vertex_rays_cast = 0;
   long long vertex_pairs_tested = 0, vertex_pairs_culled = 0;  // shaft tests in the gather
-  std::string matrix_storage;     // e.g. "dense double"
-  double matrix_bytes = 0.0;
+  std::string matrix_storage;     // "dense double", "sparse float", ... (what was used)
+  std::string matrix_storage_reason;  // why (requested, or auto from the estimate)
+  double matrix_bytes = 0.0;      // bytes of the stored matrix (after the fill)
+  double estimated_bytes = 0.0;   // the estimate the memory limit was checked against
   MemoryEstimate memory;          // estimated before the fill
   double memory_limit_bytes = 0.0;
   std::string memory_limit_source;  // "--max-memory" or "MemAvailable"

@@ -13,7 +13,7 @@ namespace photometria {
 namespace {
 
 // y = F x and yt = Fᵀ z in one pass over F (rows split over threads, Fᵀ z summed per thread).
-void multiply_and_transpose(const FormFactorMatrix& F, const Eigen::VectorXd& x, const Eigen::VectorXd& z,
+void multiply_and_transpose(const FormFactors& F, const Eigen::VectorXd& x, const Eigen::VectorXd& z,
                             Eigen::VectorXd& y, Eigen::VectorXd& yt) {
   const int n = static_cast<int>(F.rows());
   y.resize(n);
@@ -23,8 +23,8 @@ void multiply_and_transpose(const FormFactorMatrix& F, const Eigen::VectorXd& x,
     Eigen::VectorXd& mine = part[omp_get_thread_num()];
 #pragma omp for schedule(static)
     for (int i = 0; i < n; ++i) {
-      y[i] = F.row(i).dot(x);
-      if (z[i] != 0.0) mine.noalias() += z[i] * F.row(i).transpose();
+      y[i] = F.row_dot(i, x);
+      if (z[i] != 0.0) F.add_row_to(i, z[i], mine);
     }
   }
   yt = part[0];
@@ -33,7 +33,7 @@ void multiply_and_transpose(const FormFactorMatrix& F, const Eigen::VectorXd& x,
 
 }  // namespace
 
-double reciprocity_error(const FormFactorMatrix& F, const Eigen::VectorXd& A) {
+double reciprocity_error(const FormFactors& F, const Eigen::VectorXd& A) {
   const int n = static_cast<int>(F.rows());
   constexpr int kBlock = 64;
   const int blocks = (n + kBlock - 1) / kBlock;
@@ -61,7 +61,7 @@ double reciprocity_error(const FormFactorMatrix& F, const Eigen::VectorXd& A) {
 ChannelResult cg_channel(const ChannelProblem& p, const Eigen::VectorXd& A, const SolverOptions& opt,
                          Eigen::VectorXd& B) {
   const int n = static_cast<int>(p.E.size());
-  const FormFactorMatrix& F = p.F;
+  const FormFactors& F = p.F;
   // Row weights w = A/ρ on patches with ρ > 0, 0 on the others (fixed at B = E; cg.h).
   Eigen::VectorXd w = Eigen::VectorXd::Zero(n), diag = Eigen::VectorXd::Ones(n);
   for (int i = 0; i < n; ++i)

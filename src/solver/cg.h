@@ -33,7 +33,7 @@
 namespace photometria {
 
 // ‖S − Sᵀ‖_F / ‖S‖_F with S = diag(areas) F (0 = exactly reciprocal). One blocked pass over F.
-double reciprocity_error(const FormFactorMatrix& F, const Eigen::VectorXd& areas);
+double reciprocity_error(const FormFactors& F, const Eigen::VectorXd& areas);
 
 // Solves one channel from B = E; `areas` are the N patch areas (m², all > 0). B is overwritten.
 ChannelResult cg_channel(const ChannelProblem& p, const Eigen::VectorXd& areas, const SolverOptions& options,

@@ -2,11 +2,11 @@
 
 namespace photometria {
 
-void multiply(const FormFactorMatrix& F, const Eigen::VectorXd& x, Eigen::VectorXd& y) {
+void multiply(const FormFactors& F, const Eigen::VectorXd& x, Eigen::VectorXd& y) {
   const int n = static_cast<int>(F.rows());
   y.resize(n);
 #pragma omp parallel for schedule(static)
-  for (int i = 0; i < n; ++i) y[i] = F.row(i).dot(x);
+  for (int i = 0; i < n; ++i) y[i] = F.row_dot(i, x);
 }
 
 Eigen::VectorXd residual_vector(const ChannelProblem& p, const Eigen::VectorXd& B) {

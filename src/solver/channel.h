@@ -13,7 +13,7 @@
 namespace photometria {
 
 struct ChannelProblem {
-  const FormFactorMatrix& F;  // N × N, row i = receiver
+  const FormFactors& F;  // N × N, row i = receiver
   Eigen::VectorXd E;          // emission, W/m²
   Eigen::VectorXd rho;        // reflectance in [0, 1)
   Eigen::VectorXd H;          // direct irradiance, W/m²
@@ -28,7 +28,7 @@ struct ChannelResult {
 };
 
 // y = F x, rows split over the OpenMP threads (a dense product is memory bound; one pass over F).
-void multiply(const FormFactorMatrix& F, const Eigen::VectorXd& x, Eigen::VectorXd& y);
+void multiply(const FormFactors& F, const Eigen::VectorXd& x, Eigen::VectorXd& y);
 
 // r = E + ρ∘(F B + H) − B (one pass over F).
 Eigen::VectorXd residual_vector(const ChannelProblem& p, const Eigen::VectorXd& B);

@@ -3,7 +3,7 @@
 namespace photometria {
 
 ChannelResult gauss_seidel_channel(const ChannelProblem& p, const SolverOptions& opt, Eigen::VectorXd& B) {
-  const FormFactorMatrix& F = p.F;
+  const FormFactors& F = p.F;
   const int n = static_cast<int>(p.E.size());
   B = p.E;  // first guess: emission only
   double residual = relative_norm(residual_vector(p, B), B);
@@ -12,7 +12,7 @@ ChannelResult gauss_seidel_channel(const ChannelProblem& p, const SolverOptions&
     double update2 = 0.0, norm2 = 0.0;
     for (int i = 0; i < n; ++i) {
       // B_i = E_i + ρ_i (Σ_j F_ij B_j + H_i)  (Cohen & Wallace 1993, §5.3: Gauss–Seidel, in place)
-      const double b = p.E[i] + p.rho[i] * (F.row(i).dot(B) + p.H[i]);
+      const double b = p.E[i] + p.rho[i] * (F.row_dot(i, B) + p.H[i]);
       update2 += (b - B[i]) * (b - B[i]);
       norm2 += b * b;
       B[i] = b;

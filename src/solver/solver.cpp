@@ -60,7 +60,7 @@ SolverMethod choose_method(double max_reflectance, int patches, bool areas_known
   return SolverMethod::Gmres;
 }
 
-SolverReport solve_radiosity(const FormFactorMatrix& F, const ChannelMatrix& E, const ChannelMatrix& rho,
+SolverReport solve_radiosity(const FormFactors& F, const ChannelMatrix& E, const ChannelMatrix& rho,
                              const ChannelMatrix& H, bool grey, const SolverOptions& options, ChannelMatrix& B) {
   const auto start = std::chrono::steady_clock::now();
   check_inputs(E, rho);

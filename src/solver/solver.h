@@ -70,7 +70,7 @@ SolverMethod choose_method(double max_reflectance, int patches, bool areas_known
 // Solves for B (N × 3). `grey` = all of E, ρ, H_direct identical across channels: solve one.
 // Throws photometria::Error(BadInput) if some ρ is outside [0, 1), some E < 0, cg is asked for
 // without options.areas (or areas of the wrong size / not > 0), or direct for N > direct_max_patches.
-SolverReport solve_radiosity(const FormFactorMatrix& F, const ChannelMatrix& emission,
+SolverReport solve_radiosity(const FormFactors& F, const ChannelMatrix& emission,
                              const ChannelMatrix& reflectance, const ChannelMatrix& direct_irradiance,
                              bool grey, const SolverOptions& options, ChannelMatrix& radiosity);
 

@@ -5,12 +5,12 @@
 
 namespace photometria {
 
-double young_omega(const FormFactorMatrix& F, const Eigen::VectorXd& rho) {
+double young_omega(const FormFactors& F, const Eigen::VectorXd& rho) {
   const int n = static_cast<int>(F.rows());
   double mu = 0.0;
 #pragma omp parallel for schedule(static) reduction(max : mu)
   for (int i = 0; i < n; ++i) {
-    const double fii = F(i, i), off = F.row(i).sum() - fii;
+    const double fii = F(i, i), off = F.row_sum(i) - fii;
     mu = std::max(mu, rho[i] * off / (1.0 - rho[i] * fii));  // Gershgorin bound on the Jacobi matrix
   }
   if (mu <= 0.0) return 1.0;
@@ -19,7 +19,7 @@ double young_omega(const FormFactorMatrix& F, const Eigen::VectorXd& rho) {
 }
 
 ChannelResult sor_channel(const ChannelProblem& p, double omega, const SolverOptions& opt, Eigen::VectorXd& B) {
-  const FormFactorMatrix& F = p.F;
+  const FormFactors& F = p.F;
   const int n = static_cast<int>(p.E.size());
   B = p.E;
   double residual = relative_norm(residual_vector(p, B), B);
@@ -29,7 +29,7 @@ ChannelResult sor_channel(const ChannelProblem& p, double omega, const SolverOpt
     for (int i = 0; i < n; ++i) {
       const double fii = F(i, i);
       // Gauss–Seidel value, then over-relaxed (sor.h; Young 1954, SOR)
-      const double g = (p.E[i] + p.rho[i] * (F.row(i).dot(B) - fii * B[i] + p.H[i])) / (1.0 - p.rho[i] * fii);
+      const double g = (p.E[i] + p.rho[i] * (F.row_dot(i, B) - fii * B[i] + p.H[i])) / (1.0 - p.rho[i] * fii);
       const double b = B[i] + omega * (g - B[i]);
       update2 += (b - B[i]) * (b - B[i]);
       norm2 += b * b;

@@ -25,7 +25,7 @@
 namespace photometria {
 
 // Young's ω from the Jacobi bound μ above (1 when μ <= 0).
-double young_omega(const FormFactorMatrix& F, const Eigen::VectorXd& rho);
+double young_omega(const FormFactors& F, const Eigen::VectorXd& rho);
 
 // Solves one channel from B = E with the given ω in (0, 2); B (N) is resized and overwritten.
 ChannelResult sor_channel(const ChannelProblem& p, double omega, const SolverOptions& options, Eigen::VectorXd& B);

@@ -235,7 +235,7 @@ class Suite {
         FillOptions fo;
         fo.quadrature = q;
         FillStats st;
-        const FormFactorMatrix F = fill_form_factors(mesh, fo, st);
+        const FormFactors F = fill_form_factors(mesh, fo, st);
         double a1 = 0, flux = 0;
         for (int i = 0; i < mesh.size(); ++i) {
           if (s.faces[mesh.patches[i].face].group != 0) continue;
@@ -288,7 +288,7 @@ class Suite {
       FillOptions fo;
       fo.quadrature = q;
       FillStats st;
-      const FormFactorMatrix F = fill_form_factors(mesh, fo, st);
+      const FormFactors F = fill_form_factors(mesh, fo, st);
       ChannelMatrix E = ChannelMatrix::Zero(6, 3), R = ChannelMatrix::Constant(6, 3, 0.5), B;
       E.row(0).setOnes();
       solve_radiosity(F, E, R, ChannelMatrix::Zero(6, 3), true, gauss_seidel_to(1e-14, 10000), B);
@@ -308,7 +308,7 @@ class Suite {
         const Scene s = unit_cube_scene(rho, 1.0, -1);
         const PatchMesh mesh = subdivide(s, {1.0 / n * (1 + 1e-9), 0.0});
         FillStats st;
-        const FormFactorMatrix F = fill_form_factors(mesh, FillOptions{}, st);
+        const FormFactors F = fill_form_factors(mesh, FillOptions{}, st);
         const int N = mesh.size();
         ChannelMatrix B;
         solve_radiosity(F, ChannelMatrix::Constant(N, 3, 1.0), ChannelMatrix::Constant(N, 3, rho),
@@ -331,7 +331,7 @@ class Suite {
     const Scene s = unit_cube_scene(0.5, 1.0, -1);
     const PatchMesh mesh = subdivide(s, {1.0 / n * (1 + 1e-9), 0.0});
     FillStats st;
-    const FormFactorMatrix F = fill_form_factors(mesh, FillOptions{}, st);
+    const FormFactors F = fill_form_factors(mesh, FillOptions{}, st);
     const int N = mesh.size();
     std::vector<SolverMethod> methods = {SolverMethod::GaussSeidel, SolverMethod::Sor, SolverMethod::Cg,
                                          SolverMethod::Gmres};
@@ -367,7 +367,7 @@ class Suite {
       const Scene s = sphere_cap_scene(rings, 0.5);
       const PatchMesh mesh = subdivide(s, {});
       FillStats st;
-      const FormFactorMatrix F = fill_form_factors(mesh, FillOptions{}, st);
+      const FormFactors F = fill_form_factors(mesh, FillOptions{}, st);
       const int N = mesh.size();
       ChannelMatrix E = ChannelMatrix::Zero(N, 3), B;
       for (int i = 0; i < N; ++i)

@@ -80,14 +80,14 @@ Aggregation make_aggregation(const Scene& scene, const PatchMesh& mesh, Aggregat
   return a;
 }
 
-ViewFactorMatrix aggregate(const FormFactorMatrix& F, const PatchMesh& mesh, const Aggregation& agg) {
+ViewFactorMatrix aggregate(const FormFactors& F, const PatchMesh& mesh, const Aggregation& agg) {
   // F_IJ = (1/A_I) Σ_{i∈I} A_i Σ_{j∈J} F_ij (Modest 2013, eq. 4.19).
   const int g = agg.size();
   ViewFactorMatrix out = ViewFactorMatrix::Zero(g, g);
   for (int i = 0; i < mesh.size(); ++i) {
     const int I = agg.of_patch[i];
     const double ai = mesh.patches[i].area;
-    for (int j = 0; j < mesh.size(); ++j) out(I, agg.of_patch[j]) += ai * F(i, j);
+    F.for_each_in_row(i, [&](int j, double f) { out(I, agg.of_patch[j]) += ai * f; });
   }
   for (int I = 0; I < g; ++I) out.row(I) /= agg.areas[static_cast<size_t>(I)];
   return out;

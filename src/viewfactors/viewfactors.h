@@ -41,7 +41,7 @@ struct ViewFactorOptions {
 // Patch-level result of the fill.
 struct PatchViewFactors {
   PatchMesh mesh;
-  FormFactorMatrix F;                 // N × N patch factors (row i = from patch i)
+  FormFactors F;                      // N × N patch factors (row i = from patch i)
   FillStats fill;
   std::string visibility_mode;        // "none", "exact" or "rays"
   std::string visibility_reason;
@@ -61,7 +61,7 @@ struct Aggregation {
 // Groups without patches (obstruction-only groups) are left out.
 Aggregation make_aggregation(const Scene& scene, const PatchMesh& mesh, AggregateLevel level);
 // F_IJ of the formula above; G × G.
-ViewFactorMatrix aggregate(const FormFactorMatrix& F, const PatchMesh& mesh, const Aggregation& agg);
+ViewFactorMatrix aggregate(const FormFactors& F, const PatchMesh& mesh, const Aggregation& agg);
 
 // Checks of a view-factor matrix with surface areas `areas` (size n).
 struct MatrixChecks {

@@ -1,0 +1,166 @@
+#include "formfactors/storage.h"
+
+#include <algorithm>
+#include <stdexcept>
+
+#include "util/error.h"
+
+namespace photometria {
+
+const char* layout_name(MatrixLayout layout) {
+  switch (layout) {
+    case MatrixLayout::Auto: return "auto";
+    case MatrixLayout::Dense: return "dense";
+    case MatrixLayout::Sparse: return "sparse";
+  }
+  return "?";
+}
+
+const char* precision_name(MatrixPrecision precision) {
+  return precision == MatrixPrecision::Double ? "double" : "float";
+}
+
+MatrixLayout parse_layout(const std::string& name) {
+  if (name == "auto") return MatrixLayout::Auto;
+  if (name == "dense") return MatrixLayout::Dense;
+  if (name == "sparse") return MatrixLayout::Sparse;
+  throw Error(ErrorKind::BadInput, "unknown matrix layout '" + name + "' (expected auto, dense or sparse)");
+}
+
+MatrixPrecision parse_precision(const std::string& name) {
+  if (name == "double") return MatrixPrecision::Double;
+  if (name == "float") return MatrixPrecision::Float;
+  throw Error(ErrorKind::BadInput, "unknown matrix precision '" + name + "' (expected double or float)");
+}
+
+double matrix_bytes(MatrixLayout layout, MatrixPrecision precision, double n, double nonzeros) {
+  const double value = precision == MatrixPrecision::Double ? 8.0 : 4.0;
+  if (layout == MatrixLayout::Sparse)
+    return nonzeros * (value + 4.0) + n * 2.0 * sizeof(std::vector<int32_t>);  // entries + row headers
+  return n * n * value;
+}
+
+MatrixLayout choose_layout(MatrixLayout requested, MatrixPrecision precision, double n, double nonzeros) {
+  if (requested != MatrixLayout::Auto) return requested;
+  return matrix_bytes(MatrixLayout::Sparse, precision, n, nonzeros) < matrix_bytes(MatrixLayout::Dense, precision, n, nonzeros)
+             ? MatrixLayout::Sparse
+             : MatrixLayout::Dense;
+}
+
+FormFactors::FormFactors(int n, MatrixLayout layout, MatrixPrecision precision)
+    : n_(n), layout_(layout), precision_(precision) {
+  if (layout == MatrixLayout::Auto) throw std::logic_error("FormFactors: resolve the layout before allocating");
+  if (layout == MatrixLayout::Dense) {
+    if (precision == MatrixPrecision::Double)
+      dense_double_ = FormFactorMatrix::Zero(n, n);
+    else
+      dense_float_.setZero(n, n);
+    return;
+  }
+  columns_.resize(n);
+  if (precision == MatrixPrecision::Double)
+    values_double_.resize(n);
+  else
+    values_float_.resize(n);
+}
+
+FormFactors::FormFactors(FormFactorMatrix dense)
+    : n_(static_cast<int>(dense.rows())), dense_double_(std::move(dense)) {}
+
+std::string FormFactors::description() const {
+  return std::string(layout_name(layout_)) + " " + precision_name(precision_);
+}
+
+double FormFactors::bytes() const {
+  return matrix_bytes(layout_, precision_, n_, double(layout_ == MatrixLayout::Sparse ? nonzeros() : 0));
+}
+
+long long FormFactors::nonzeros() const {
+  long long count = 0;
+  if (layout_ == MatrixLayout::Sparse) {
+    for (const auto& c : columns_) count += static_cast<long long>(c.size());
+    return count;
+  }
+  if (precision_ == MatrixPrecision::Double)
+    return static_cast<long long>((dense_double_.array() != 0.0).count());
+  return static_cast<long long>((dense_float_.array() != 0.0f).count());
+}
+
+void FormFactors::set_row(int i, const double* values) {
+  if (layout_ == MatrixLayout::Dense) {
+    if (precision_ == MatrixPrecision::Double)
+      dense_double_.row(i) = Eigen::Map<const Eigen::RowVectorXd>(values, n_);
+    else
+      dense_float_.row(i) = Eigen::Map<const Eigen::RowVectorXd>(values, n_).cast<float>();
+    return;
+  }
+  std::vector<int32_t>& c = columns_[i];
+  c.clear();
+  for (int j = 0; j < n_; ++j)
+    if (values[j] != 0.0) c.push_back(j);
+  c.shrink_to_fit();
+  if (precision_ == MatrixPrecision::Double) {
+    std::vector<double>& v = values_double_[i];
+    v.resize(c.size());
+    for (size_t k = 0; k < c.size(); ++k) v[k] = values[c[k]];
+  } else {
+    std::vector<float>& v = values_float_[i];
+    v.resize(c.size());
+    for (size_t k = 0; k < c.size(); ++k) v[k] = float(values[c[k]]);
+  }
+}
+
+double FormFactors::operator()(int i, int j) const {
+  if (layout_ == MatrixLayout::Dense)
+    return precision_ == MatrixPrecision::Double ? dense_double_(i, j) : double(dense_float_(i, j));
+  const std::vector<int32_t>& c = columns_[i];
+  const auto it = std::lower_bound(c.begin(), c.end(), j);
+  if (it == c.end() || *it != j) return 0.0;
+  const size_t k = size_t(it - c.begin());
+  return precision_ == MatrixPrecision::Double ? values_double_[i][k] : double(values_float_[i][k]);
+}
+
+double FormFactors::row_dot(int i, const Eigen::VectorXd& x) const {
+  if (layout_ == MatrixLayout::Dense) {
+    if (precision_ == MatrixPrecision::Double) return dense_double_.row(i).dot(x);
+    // Widen in blocks so Eigen vectorizes both the conversion and the product.
+    const float* row = dense_float_.data() + size_t(i) * size_t(n_);
+    double sum = 0.0;
+    for (int j = 0; j < n_; ++j) sum += double(row[j]) * x[j];
+    return sum;
+  }
+  const std::vector<int32_t>& c = columns_[i];
+  double sum = 0.0;
+  if (precision_ == MatrixPrecision::Double) {
+    const std::vector<double>& v = values_double_[i];
+    for (size_t k = 0; k < c.size(); ++k) sum += v[k] * x[c[k]];
+  } else {
+    const std::vector<float>& v = values_float_[i];
+    for (size_t k = 0; k < c.size(); ++k) sum += double(v[k]) * x[c[k]];
+  }
+  return sum;
+}
+
+double FormFactors::row_sum(int i) const {
+  double sum = 0.0;
+  for_each_in_row(i, [&](int, double f) { sum += f; });
+  return sum;
+}
+
+void FormFactors::add_row_to(int i, double alpha, Eigen::VectorXd& y) const {
+  if (layout_ == MatrixLayout::Dense && precision_ == MatrixPrecision::Double) {
+    y.noalias() += alpha * dense_double_.row(i).transpose();
+    return;
+  }
+  for_each_in_row(i, [&](int j, double f) { y[j] += alpha * f; });
+}
+
+FormFactorMatrix FormFactors::to_dense() const {
+  if (layout_ == MatrixLayout::Dense && precision_ == MatrixPrecision::Double) return dense_double_;
+  if (layout_ == MatrixLayout::Dense) return dense_float_.cast<double>();
+  FormFactorMatrix d = FormFactorMatrix::Zero(n_, n_);
+  for (int i = 0; i < n_; ++i) for_each_in_row(i, [&](int j, double f) { d(i, j) = f; });
+  return d;
+}
+
+}  // namespace photometria
