@@ -1,12 +1,20 @@
 // `photometria viewfactors SCENE -o VF.csv [--by group|face|patch] [--format ...] [--enforce ...]
-// [--points FILE]`: view-factor matrices for radiative heat transfer (docs/viewfactors.md).
+// [--points FILE] [--max-memory SIZE] [--matrix ...]`: view-factor matrices for radiative heat transfer
+// (docs/viewfactors.md).
+#include <algorithm>
+#include <cctype>
 #include <chrono>
+#include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "commands.h"
+#include "io/atomic_file.h"
 #include "io/viewfactor_output.h"
+#include "pipeline/memory.h"
 #include "pipeline/solve.h"
 #include "scene/scene.h"
 #include "util/error.h"
@@ -18,7 +26,7 @@ namespace {
 
 struct ViewFactorArgs {
   std::string scene, output, by = "group", format = "csv", enforce = "none", visibility = "auto", points,
-                             points_output;
+                             points_output, max_memory, matrix = "auto", matrix_precision = "double";
   double threshold = 0.0, max_edge = 0.0, accuracy = 1e-7;
   int rays = 576;
   bool json = false, flip_normals = false;
@@ -33,6 +41,23 @@ nlohmann::json checks_json(const pm::MatrixChecks& c, const std::vector<std::str
           {"reciprocity_error_max", c.reciprocity_error},
           {"min_entry", c.min_entry},
           {"max_entry", c.max_entry}};
+}
+
+// Per output surface, the emissivity of its View3D surface when the input is a .vs3 file (the
+// last line of View3D's output); empty otherwise (the writer then puts 1.000).
+std::vector<double> view3d_emissivities_of(const std::string& path, const pm::Scene& scene, const pm::PatchMesh& mesh,
+                                           const pm::Aggregation& agg) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (ext != ".vs3") return {};
+  const std::vector<double> by_surface = pm::view3d_emissivities(path);
+  std::vector<double> out(static_cast<size_t>(agg.size()), 1.0);
+  for (int i = 0; i < mesh.size(); ++i) {
+    const int source = scene.faces[static_cast<size_t>(mesh.patches[i].face)].source_face;
+    if (source >= 0 && source < static_cast<int>(by_surface.size()))
+      out[static_cast<size_t>(agg.of_patch[i])] = by_surface[static_cast<size_t>(source)];
+  }
+  return out;
 }
 
 int run(const ViewFactorArgs& a) {
@@ -64,6 +89,26 @@ int run(const ViewFactorArgs& a) {
   opt.accuracy = a.accuracy;
   opt.patching.max_edge = a.max_edge;
   opt.rays = a.rays;
+  if (!a.max_memory.empty() && !pm::parse_memory_size(a.max_memory, opt.max_memory_bytes))
+    pm::throw_bad_input("--max-memory: '" + a.max_memory + "' is not a size (e.g. 512M, 2G, 1.5GiB)");
+  opt.matrix_layout = pm::parse_layout(a.matrix);
+  opt.matrix_precision = pm::parse_precision(a.matrix_precision);
+  opt.level = level;
+  opt.enforcement = enforcement != pm::Enforcement::None;
+
+  // Every output is opened (its temporary file created) before the long work, so that an
+  // unwritable path fails in a second, and committed only when all of them were written, so
+  // that a failed run leaves none (io/atomic_file.h).
+  const std::string points_path =
+      a.points.empty() ? std::string() : a.points_output.empty() ? a.output + ".points.csv" : a.points_output;
+  if (!points_path.empty()) {
+    namespace fs = std::filesystem;
+    if (fs::absolute(points_path).lexically_normal() == fs::absolute(a.output).lexically_normal())
+      pm::throw_bad_input("--points-output: '" + points_path + "' is also the -o output");
+  }
+  pm::AtomicOutput main_out(a.output);
+  std::optional<pm::AtomicOutput> points_out;
+  if (!points_path.empty()) points_out.emplace(points_path);
 
   pm::LoadOptions lo;
   lo.flip_normals = a.flip_normals;
@@ -73,6 +118,7 @@ int run(const ViewFactorArgs& a) {
   // Points are read before the (long) fill so that a bad file fails fast.
   std::vector<pm::SurfacePoint> points;
   if (!a.points.empty()) points = pm::load_points(a.points);
+  opt.points = static_cast<int>(points.size());
 
   const pm::PatchViewFactors r = pm::compute_view_factors(scene, opt);
   const pm::Aggregation agg = pm::make_aggregation(scene, r.mesh, level);
@@ -80,17 +126,26 @@ int run(const ViewFactorArgs& a) {
   pm::EnforcementReport rep;
   if (enforcement != pm::Enforcement::None) rep = pm::enforce(F, agg.areas, enforcement);
   const pm::MatrixChecks checks = pm::check_matrix(F, agg.areas);
-  const std::string title = scene.settings.contains("title") && scene.settings["title"].is_string()
-                                ? scene.settings["title"].get<std::string>()
-                                : "photometria view factors: " + a.scene;
-  const pm::SparseWriteStats ws = pm::write_view_factors(a.output, format, agg.names, agg.areas, F, a.threshold, title);
-  std::string points_path;
-  if (!points.empty()) {
+  pm::View3dOutput v3;
+  if (format == pm::ViewFactorFormat::View3d) {
+    v3.enclosure = enforcement == pm::Enforcement::Closure || enforcement == pm::Enforcement::Both ? 1 : 0;
+    v3.emissivities = view3d_emissivities_of(a.scene, scene, r.mesh, agg);
+  }
+  const pm::SparseWriteStats ws = pm::write_view_factors(main_out, format, agg.names, agg.areas, F, a.threshold, v3);
+  if (points_out) {
     const pm::ViewFactorMatrix P = pm::point_view_factors(points, r.mesh, agg, r.visibility.get(), opt);
-    points_path = a.points_output.empty() ? a.output + ".points.csv" : a.points_output;
     std::vector<std::string> ids;
     for (const pm::SurfacePoint& p : points) ids.push_back(p.id);
-    pm::write_point_factors(points_path, ids, agg.names, P);
+    pm::write_point_factors(*points_out, ids, agg.names, P);
+  }
+  main_out.commit();
+  if (points_out) {
+    try {
+      points_out->commit();
+    } catch (...) {
+      std::remove(main_out.target().c_str());  // all or nothing
+      throw;
+    }
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
@@ -106,6 +161,13 @@ int run(const ViewFactorArgs& a) {
   j["visibility"] = r.visibility_mode;
   j["visibility_reason"] = r.visibility_reason;
   j["checks"] = checks_json(checks, agg.names);
+  const pm::ViewFactorMemory& m = r.memory;
+  j["matrix"] = {{"storage", r.F.description()}, {"reason", m.storage_reason}, {"bytes", r.F.bytes()}};
+  j["memory_estimate"] = {{"estimated_bytes", m.estimated_bytes},   {"matrix_bytes", m.matrix_bytes},
+                          {"output_bytes", m.output_bytes},         {"per_patch_bytes", m.patches.per_patch_bytes},
+                          {"dense_bytes", m.patches.dense_bytes},   {"sparse_bytes", m.patches.sparse_bytes},
+                          {"nonzero_pairs", m.patches.nonzero_pairs}, {"limit_bytes", m.limit_bytes},
+                          {"limit_source", m.limit_source}};
   j["pairs"] = {{"evaluated", r.fill.pairs_evaluated},     {"backfacing", r.fill.pairs_backfacing},
                 {"per_pair_gauss", r.fill.pairs_gauss},     {"per_pair_adaptive", r.fill.pairs_adaptive},
                 {"fixed_rule", r.fill.pairs_fixed_rule},     {"fixed_rule_order", opt.quadrature},
@@ -136,6 +198,11 @@ int run(const ViewFactorArgs& a) {
             << checks.mean_row_sum << "; worst row " << checks.worst_row << " (" << agg.names[checks.worst_row]
             << ")\n"
             << "  reciprocity error max: " << checks.reciprocity_error << "\n"
+            << "  matrix: " << r.F.description() << ", " << pm::format_bytes(r.F.bytes()) << " (" << m.storage_reason
+            << ")\n"
+            << "  memory estimate: " << pm::format_bytes(m.estimated_bytes) << " for this run ("
+            << pm::format_bytes(m.matrix_bytes) << " patch matrix, " << pm::format_bytes(m.output_bytes)
+            << " output); limit " << pm::format_bytes(m.limit_bytes) << " (" << m.limit_source << ")\n"
             << "  pairs: " << r.fill.pairs_gauss << " per-pair Gauss, " << r.fill.pairs_adaptive << " adaptive, "
             << r.fill.pairs_fixed_rule << " fixed order " << opt.quadrature << " (visibility), "
             << r.fill.pairs_backfacing << " facing away; " << r.fill.pairs_tested << " shaft-tested, "
@@ -171,6 +238,10 @@ Command add_viewfactors_command(CLI::App& app) {
   sub->add_option("--accuracy", a->accuracy, "Per-pair relative tolerance for unblocked pairs (default 1e-7)");
   sub->add_option("--visibility", a->visibility, "auto (default), none, rays or exact");
   sub->add_option("--rays", a->rays, "Rays per (point, patch) in ray visibility (default 576)");
+  sub->add_option("--max-memory", a->max_memory,
+                  "Refuse before the fill when the memory estimate exceeds this: 512M, 2G, ... (default: MemAvailable)");
+  sub->add_option("--matrix", a->matrix, "Patch form-factor storage: auto | dense | sparse (default auto: the smaller for the scene)");
+  sub->add_option("--matrix-precision", a->matrix_precision, "Patch form-factor entries: double | float (default double; float halves the matrix)");
   sub->add_flag("--flip-normals", a->flip_normals, "Reverse every face (inside-out exports)");
   sub->add_flag("--json", a->json, "Print a machine-readable summary on stdout");
   return {sub, [a]() { return run(*a); }};

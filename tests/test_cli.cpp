@@ -2,8 +2,10 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -147,6 +149,7 @@ TEST(Cli, UnwritableOutputFailsBeforeSolving) {
   const CliRun r = run("solve " + mesh("furnace_cube.obj") + " -o /no/such/dir/out.vtu");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("/no/such/dir/out.vtu"), std::string::npos) << r.err;
+  EXPECT_EQ(count_lines(r.err), 1) << r.err;
 }
 
 TEST(Cli, HelpExitsZero) {
@@ -185,6 +188,10 @@ TEST(Cli, NothingToSolveIsABadInput) {
   const CliRun r = run("solve " + (dir / "dark.off").string() + " -o " + (dir / "dark.vtu").string());
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("nothing to solve"), std::string::npos) << r.err;
+  EXPECT_EQ(count_lines(r.err), 1) << r.err;
+  // No output and no temporary beside it.
+  for (const auto& e : fs::directory_iterator(dir))
+    EXPECT_NE(e.path().filename().string().rfind("dark.vtu", 0), 0u) << e.path();
   const CliRun lit = run("solve " + (dir / "dark.off").string() + " -o " + (dir / "dark.vtu").string() + " --emission 2");
   EXPECT_EQ(lit.exit_code, 0) << lit.err;
 }
@@ -228,4 +235,43 @@ TEST(Cli, SceneFileLightsGiveDirectIrradiance) {
   const VtuGrid g = photometria::read_vtu(out);
   for (double b : array(g.cell_arrays, "radiosity").values) EXPECT_NEAR(b, 500.0, 1e-9);
   for (double b : array(g.point_arrays, "radiosity").values) EXPECT_NEAR(b, 500.0, 1e-9);
+}
+
+// `validate --quick --report DIR`: the table as CSV and, through gnuplot, the error-against-time
+// plot (docs/validation.md). Without gnuplot the plot cannot be made: exit 2 naming gnuplot, the
+// CSV still written.
+TEST(Cli, ValidateQuickReportWritesTheTableAndThePlot) {
+  const fs::path dir = scratch() / "validation_report";
+  fs::remove_all(dir);
+  const CliRun r = run("validate --quick --report " + dir.string());
+  const bool gnuplot = std::system("which gnuplot >/dev/null 2>&1") == 0;
+  if (gnuplot) {
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+  } else {
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_NE(r.err.find("gnuplot"), std::string::npos) << r.err;
+  }
+  std::ifstream in(dir / "validation.csv");
+  ASSERT_TRUE(in) << "no " << (dir / "validation.csv");
+  std::string header, line;
+  ASSERT_TRUE(std::getline(in, header));
+  EXPECT_EQ(header, "scene,setting,patches,quadrature,cases,max_rel_error,rms_rel_error,seconds");
+  int rows = 0;
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    ++rows;
+    EXPECT_GE(std::count(line.begin(), line.end(), ','), 7) << line;
+  }
+  EXPECT_GE(rows, 5);
+  // The summary on stdout has one line per row plus its header.
+  EXPECT_EQ(count_lines(r.out), rows + 1) << r.out;
+  if (gnuplot) {
+    const fs::path png = dir / "error_vs_time.png";
+    ASSERT_TRUE(fs::exists(png));
+    EXPECT_GT(fs::file_size(png), 1000u);
+    std::ifstream p(png, std::ios::binary);
+    char magic[8] = {};
+    p.read(magic, 8);
+    EXPECT_EQ(std::string(magic, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+  }
 }

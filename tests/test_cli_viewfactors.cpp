@@ -1,9 +1,11 @@
 // End-to-end: `photometria viewfactors` on the View3D manual's cube (tests/data/view3d_cube.vs3):
-// every output format, the --json summary, enforcement, sparse drops, point factors, bad input.
+// every output format, the --json summary, enforcement, sparse drops, point factors, bad input,
+// the memory guard and storage choice, and all-or-nothing outputs.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -12,6 +14,8 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <string>
+#include <vector>
 
 namespace fs = std::filesystem;
 
@@ -103,7 +107,7 @@ TEST(CliViewFactors, ManualCubeDenseCsvBeatsView3d) {
   EXPECT_GT(j["peak_memory_bytes"].get<double>(), 0.0);
 }
 
-TEST(CliViewFactors, PatchLevelSparseBinaryAndView3dForms) {
+TEST(CliViewFactors, PatchLevelSparseAndBinaryForms) {
   // Sparse at patch level with a threshold: the dropped row sums are reported and add up.
   const fs::path sp = scratch() / "cube.sparse";
   CliRun r = run("viewfactors " + cube + " --by patch --max-edge 0.5 --format sparse --threshold 0.03 -o " +
@@ -148,13 +152,54 @@ TEST(CliViewFactors, PatchLevelSparseBinaryAndView3dForms) {
   std::memcpy(&f01, b.data() + pos + 48 + 8, 8);
   EXPECT_NEAR(f01, kOpposite, 2e-8);
 
-  // View3D-style text: six-decimal rows, the manual's printed values.
+}
+
+// --format view3d is View3D's own text output file (SaveVF, format 0; docs/viewfactors.md): a
+// 30-character header "program version format encl didemit n", the areas (%g), n rows of F
+// (%.6f), the emissivities (%.3f). The whole file is compared, byte for byte.
+TEST(CliViewFactors, View3dFormIsView3dsOwnTextOutput) {
   const fs::path v3 = scratch() / "cube.vf";
-  r = run("viewfactors " + cube + " --format view3d -o " + v3.string());
+  CliRun r = run("viewfactors " + cube + " --format view3d -o " + v3.string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  const std::string t = slurp(v3);
-  EXPECT_NE(t.find("F 3 6\n"), std::string::npos);
-  EXPECT_NE(t.find("0.000000 0.199825 0.200044 0.200044 0.200044 0.200044  ! floor\n"), std::string::npos);
+  std::string want = "Photometria 0.1.0 0 0 0 6     \n1 1 1 1 1 1\n";
+  ASSERT_EQ(want.find('\n'), 30u);
+  for (int i = 0; i < 6; ++i) {
+    for (int j = 0; j < 6; ++j) want += std::string(j ? " " : "") + (i == j ? "0.000000" : j == kOpp[i] ? "0.199825" : "0.200044");
+    want += "\n";
+  }
+  want += "0.900 0.900 0.900 0.900 0.900 0.900\n";  // the emit field of the .vs3 S lines
+  EXPECT_EQ(slurp(v3), want);
+
+  // Enforced closure sets View3D's encl flag; patch level: 24 rows of 24, areas 0.25.
+  r = run("viewfactors " + cube + " --format view3d --by patch --max-edge 0.5 --enforce both -o " + v3.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::stringstream lines(slurp(v3));
+  std::string line;
+  std::getline(lines, line);
+  EXPECT_EQ(line, "Photometria 0.1.0 0 1 0 24    ");
+  std::getline(lines, line);
+  std::string areas = "0.25";
+  for (int k = 1; k < 24; ++k) areas += " 0.25";
+  EXPECT_EQ(line, areas);
+  for (int i = 0; i < 24; ++i) {
+    ASSERT_TRUE(std::getline(lines, line));
+    std::stringstream cells(line);
+    double f = 0.0, sum = 0.0;
+    int count = 0;
+    while (cells >> f) { sum += f; ++count; }
+    EXPECT_EQ(count, 24);
+    EXPECT_NEAR(sum, 1.0, 24 * 5e-7) << "row " << i;
+  }
+  ASSERT_TRUE(std::getline(lines, line));
+  EXPECT_EQ(line.substr(0, 12), "0.900 0.900 ");
+  EXPECT_FALSE(std::getline(lines, line));
+
+  // Input without emissivities (not .vs3): 1.000 (black).
+  const fs::path obj = scratch() / "squares.vf";
+  r = run("viewfactors " + std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/two_squares.obj --format view3d -o " + obj.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string t = slurp(obj);
+  EXPECT_EQ(t.substr(t.rfind('\n', t.size() - 2) + 1), "1.000 1.000\n");
 }
 
 TEST(CliViewFactors, EnforcementAndPointFactors) {
@@ -175,6 +220,130 @@ TEST(CliViewFactors, EnforcementAndPointFactors) {
   // Howell B-5 by quadrants: a point at the floor's centre to the ceiling.
   const double s1 = std::sqrt(1.25);
   EXPECT_NEAR(std::stod(rows[1][2]), 4.0 / (2 * M_PI) * (2 * 0.5 / s1 * std::atan(0.5 / s1)), 1e-13);
+}
+
+namespace {
+
+// Files in the scratch folder whose name starts with `prefix` (outputs and their temporaries).
+std::vector<std::string> files_starting(const std::string& prefix) {
+  std::vector<std::string> found;
+  for (const auto& e : fs::directory_iterator(scratch()))
+    if (e.path().filename().string().rfind(prefix, 0) == 0) found.push_back(e.path().filename().string());
+  return found;
+}
+
+int count_lines(const std::string& s) { return static_cast<int>(std::count(s.begin(), s.end(), '\n')); }
+
+const std::string cornell = std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/cornell_box.obj";
+
+}  // namespace
+
+// The memory guard of `solve --max-memory` (pipeline/memory.h), before the fill.
+TEST(CliViewFactors, MaxMemoryRefusesBeforeTheFillNamingEstimateAndLimit) {
+  const fs::path out = scratch() / "mem.csv";
+  CliRun r = run("viewfactors " + cube + " --by patch --max-edge 0.25 -o " + out.string() + " --max-memory 4k");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(count_lines(r.err), 1) << r.err;
+  EXPECT_NE(r.err.find("need an estimated"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("96 patches"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--max-memory is 4 KiB"), std::string::npos) << r.err;
+  EXPECT_TRUE(files_starting("mem.csv").empty());
+
+  r = run("viewfactors " + cube + " -o " + out.string() + " --max-memory lots");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("--max-memory: 'lots'"), std::string::npos) << r.err;
+  EXPECT_TRUE(files_starting("mem.csv").empty());
+
+  // Under the limit: the estimate and the limit are in the summary.
+  r = run("viewfactors " + cube + " --by patch --max-edge 0.25 -o " + out.string() + " --max-memory 1G --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  const auto& m = j["memory_estimate"];
+  EXPECT_EQ(m["limit_source"], "--max-memory");
+  EXPECT_EQ(m["limit_bytes"].get<double>(), 1073741824.0);
+  EXPECT_EQ(m["matrix_bytes"].get<double>(), 8.0 * 96 * 96);  // closed cube: every pair faces, dense
+  EXPECT_EQ(m["output_bytes"].get<double>(), 8.0 * 96 * 96);  // the aggregated 96 × 96 matrix
+  EXPECT_GT(m["estimated_bytes"].get<double>(), m["matrix_bytes"].get<double>() + m["output_bytes"].get<double>());
+  EXPECT_EQ(j["matrix"]["storage"], "dense double");
+  // The plain summary shows it too.
+  r = run("viewfactors " + cube + " -o " + out.string() + " --max-memory 1G");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("memory estimate: "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("limit 1 GiB (--max-memory)"), std::string::npos) << r.out;
+}
+
+// A scene where most pairs face away (the Cornell box) is filled into sparse storage; the
+// factors are the same as from dense storage, and float storage is within its 2^-24.
+TEST(CliViewFactors, SparseSceneIsStoredSparseWithTheSameFactors) {
+  const fs::path a = scratch() / "auto.csv", d = scratch() / "dense.csv", f = scratch() / "float.csv";
+  CliRun r = run("viewfactors " + cornell + " --by patch -o " + a.string() + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["matrix"]["storage"], "sparse double");
+  EXPECT_NE(j["matrix"]["reason"].get<std::string>().find("auto"), std::string::npos);
+  EXPECT_LT(j["memory_estimate"]["nonzero_pairs"].get<double>(), 0.6 * j["patches"].get<double>() * (j["patches"].get<double>() - 1));
+  r = run("viewfactors " + cornell + " --by patch --matrix dense -o " + d.string() + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["matrix"]["storage"], "dense double");
+  EXPECT_EQ(j["matrix"]["reason"], "requested (--matrix dense)");
+  EXPECT_EQ(slurp(a), slurp(d));
+  r = run("viewfactors " + cornell + " --by patch --matrix-precision float -o " + f.string() + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  // (auto may pick either layout in float: 8 bytes per sparse entry against 4 per dense one)
+  EXPECT_NE(nlohmann::json::parse(r.out)["matrix"]["storage"].get<std::string>().find(" float"), std::string::npos);
+  const auto rd = csv(d), rf = csv(f);
+  ASSERT_EQ(rd.size(), rf.size());
+  for (size_t i = 1; i < rd.size(); ++i)
+    for (size_t k = 2; k < rd[i].size(); ++k)
+      EXPECT_NEAR(std::stod(rf[i][k]), std::stod(rd[i][k]), 1.2e-7 * std::stod(rd[i][k])) << i << "," << k;
+  r = run("viewfactors " + cornell + " --matrix triangular -o " + a.string());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("triangular"), std::string::npos) << r.err;
+}
+
+// Every output is checked before the scene is even loaded: the Cornell box prints two load
+// warnings, so a single line on stderr shows that nothing ran before the refusal.
+TEST(CliViewFactors, UnwritableOutputFailsFastWithOneLine) {
+  const CliRun r = run("viewfactors " + cornell + " --by patch -o /no/such/dir/VF.csv");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(count_lines(r.err), 1) << r.err;
+  EXPECT_NE(r.err.find("/no/such/dir/VF.csv"), std::string::npos) << r.err;
+  EXPECT_EQ(r.out, "");
+}
+
+// All or nothing: an unwritable --points-output leaves neither file (nor a temporary), and an
+// existing -o file keeps its old contents.
+TEST(CliViewFactors, UnwritablePointsOutputLeavesNeitherFile) {
+  const fs::path out = scratch() / "pts_vf.csv", pts = scratch() / "pts_in.csv";
+  std::ofstream(pts) << "0.5,0.5,0,0,0,1,centre\n";
+  CliRun r = run("viewfactors " + cube + " -o " + out.string() + " --points " + pts.string() +
+                 " --points-output /no/such/dir/p.csv");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(count_lines(r.err), 1) << r.err;
+  EXPECT_NE(r.err.find("/no/such/dir/p.csv"), std::string::npos) << r.err;
+  EXPECT_TRUE(files_starting("pts_vf.csv").empty());
+
+  std::ofstream(out) << "old\n";
+  r = run("viewfactors " + cube + " -o " + out.string() + " --points " + pts.string() +
+          " --points-output /no/such/dir/p.csv");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(slurp(out), "old\n");
+  EXPECT_EQ(files_starting("pts_vf.csv"), std::vector<std::string>{"pts_vf.csv"});
+  fs::remove(out);
+
+  // The points output and -o cannot be one file.
+  r = run("viewfactors " + cube + " -o " + out.string() + " --points " + pts.string() + " --points-output " + out.string());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(count_lines(r.err), 1) << r.err;
+  EXPECT_TRUE(files_starting("pts_vf.csv").empty());
+
+  // Both written on success (default points path: OUT.points.csv).
+  r = run("viewfactors " + cube + " -o " + out.string() + " --points " + pts.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(csv(out).size(), 7u);
+  EXPECT_EQ(csv(out.string() + ".points.csv").size(), 2u);
+  EXPECT_EQ(files_starting("pts_vf.csv").size(), 2u);
 }
 
 TEST(CliViewFactors, BadInputIsRefused) {

@@ -50,12 +50,12 @@ bool view_factor_format_from_name(const std::string& name, ViewFactorFormat& out
   return true;
 }
 
-SparseWriteStats write_view_factors(const std::string& path, ViewFactorFormat format,
+SparseWriteStats write_view_factors(const AtomicOutput& atomic, ViewFactorFormat format,
                                     const std::vector<std::string>& names, const std::vector<double>& areas,
-                                    const ViewFactorRows& F, double threshold, const std::string& title) {
+                                    const ViewFactorRows& F, double threshold, const View3dOutput& view3d) {
   SparseWriteStats st;
   const int n = static_cast<int>(F.rows());
-  AtomicOutput atomic(path);
+  const std::string& path = atomic.target();
   {
     std::ofstream out(atomic.temp_path(), std::ios::binary | std::ios::trunc);
     if (!out) throw_io("cannot write '" + path + "'");
@@ -106,27 +106,42 @@ SparseWriteStats write_view_factors(const std::string& path, ViewFactorFormat fo
         break;
       }
       case ViewFactorFormat::View3d: {
-        char buf[64];
-        out << "T " << title << "\n" << "F 3 " << n << "\nA";
-        for (int i = 0; i < n; ++i) { std::snprintf(buf, sizeof buf, " %.6e", areas[i]); out << buf; }
-        out << "\n";
+        // View3D's SaveVF, output format 0 (docs/viewfactors.md "The view3d form"): its values
+        // are single precision (R4) printed with C's %g / %.6f / %.3f, blank-separated.
+        std::string header = view3d.program + " " + view3d.version + " 0 " + std::to_string(view3d.enclosure) +
+                             " 0 " + std::to_string(n);
+        if (header.size() < 30) header.resize(30, ' ');
+        out << header << "\n";
+        const auto field = [](const char* fmt, double v) {
+          char buf[64];
+          std::snprintf(buf, sizeof buf, fmt, static_cast<double>(static_cast<float>(v == 0.0 ? 0.0 : v)));
+          return std::string(buf);
+        };
+        std::string line;
+        for (int i = 0; i < n; ++i) line.append(i ? " " : "").append(field("%g", areas[i]));
+        out << line << "\n";
         for (int i = 0; i < n; ++i) {
-          for (int j = 0; j < n; ++j) { std::snprintf(buf, sizeof buf, "%s%.6f", j ? " " : "", F(i, j)); out << buf; }
-          out << "  ! " << names[i] << "\n";
+          line.clear();
+          for (int j = 0; j < n; ++j) line.append(j ? " " : "").append(field("%.6f", F(i, j)));
+          out << line << "\n";
         }
+        line.clear();
+        const bool have_emit = view3d.emissivities.size() == static_cast<size_t>(n);
+        for (int i = 0; i < n; ++i)
+          line.append(i ? " " : "").append(field("%.3f", have_emit ? view3d.emissivities[static_cast<size_t>(i)] : 1.0));
+        out << line << "\n";
         break;
       }
     }
     out.flush();
     if (!out) throw_io("cannot write '" + path + "' (disk full?)");
   }
-  atomic.commit();
   return st;
 }
 
-void write_point_factors(const std::string& path, const std::vector<std::string>& point_ids,
+void write_point_factors(const AtomicOutput& atomic, const std::vector<std::string>& point_ids,
                          const std::vector<std::string>& surface_names, const ViewFactorRows& P) {
-  AtomicOutput atomic(path);
+  const std::string& path = atomic.target();
   {
     std::ofstream out(atomic.temp_path(), std::ios::binary | std::ios::trunc);
     if (!out) throw_io("cannot write '" + path + "'");
@@ -141,7 +156,6 @@ void write_point_factors(const std::string& path, const std::vector<std::string>
     out.flush();
     if (!out) throw_io("cannot write '" + path + "' (disk full?)");
   }
-  atomic.commit();
 }
 
 }  // namespace photometria

@@ -1,9 +1,13 @@
-// View-factor matrix writers (`photometria viewfactors --format ...`), each written atomically
-// (io/atomic_file.h: a failed run never leaves a half-written file).
+// View-factor matrix writers (`photometria viewfactors --format ...`).
+//
+// Every writer fills the temporary file of an AtomicOutput (io/atomic_file.h) and does not commit
+// it: the caller opens all the outputs of a run before the long computation and commits them
+// only when every one was written, so a failed run leaves none of them (and an unwritable path
+// is found in a second, not after the fill).
 //
 // Inputs everywhere: `names` and `areas` (m²) of the n surfaces, F an n × n row-major matrix,
 // row i = from surface i. Values are written with 17 significant digits (round-trip exact)
-// except in the view3d form, which copies View3D's fixed 6-decimal text to make diffs easy.
+// except in the view3d form, which reproduces View3D's own text output.
 //
 //   csv     dense: header "name,area,<name_1>,...,<name_n>", then one line per row:
 //           "<name_i>,<A_i>,F_i1,...,F_in". Names with commas or quotes are CSV-quoted.
@@ -13,12 +17,18 @@
 //   binary  little-endian: 8 bytes magic "PMVF\0\0\0\1", uint64 n, then for each surface a
 //           uint32 byte length and the UTF-8 name, then n float64 areas, then n × n float64 F
 //           row-major. Total 16 + Σ(4 + len) + 8 n + 8 n² bytes.
-//   view3d  View3D-style text: "T <title>", "F 3 <n>", "A <A_1> ... <A_n>" then one line per row
-//           of F with %.6f values (View3D's text output precision) and the row's name.
+//   view3d  View3D's text view-factor file (its SaveVF with output format 0, View3D 3.2 – 3.5;
+//           docs/viewfactors.md has the layout and its sources): a header line
+//           "<program> <version> 0 <encl> 0 <n>" padded with blanks to 30 characters, the n
+//           areas ("%g" of the single-precision value, one blank between), n rows of F
+//           ("%.6f" of single precision, one blank between), the n emissivities ("%.3f").
+//           No names, no title: View3D's readers take numbers only.
 #pragma once
 #include <Eigen/Core>
 #include <string>
 #include <vector>
+
+#include "io/atomic_file.h"
 
 namespace photometria {
 
@@ -34,16 +44,26 @@ struct SparseWriteStats {
   double total_dropped = 0;       // Σ over all dropped entries
 };
 
-// Throws Error(Io) when the path cannot be written. `threshold` only applies to Sparse;
-// `title` only to View3d. Returns the drop statistics (all zero for the dense forms).
-SparseWriteStats write_view_factors(const std::string& path, ViewFactorFormat format,
+// What the view3d form writes besides the matrix.
+struct View3dOutput {
+  std::string program = "Photometria";  // header fields 1 and 2 (View3D writes "View3D 3.2")
+  std::string version = "0.1.0";        // as `photometria --version`; View3D's readers take <= 7 chars
+  int enclosure = 0;                    // header field 4 (View3D's encl: rows normalised to sum 1)
+  std::vector<double> emissivities;     // last line, per surface; not n long: 1.0 for every surface
+};
+
+// Writes F into `out`'s temporary file (not committed). Throws Error(Io) naming out.target()
+// when it cannot be written. `threshold` only applies to Sparse; `view3d` only to View3d.
+// Returns the drop statistics (all zero for the dense forms).
+SparseWriteStats write_view_factors(const AtomicOutput& out, ViewFactorFormat format,
                                     const std::vector<std::string>& names, const std::vector<double>& areas,
                                     const ViewFactorRows& F, double threshold = 0.0,
-                                    const std::string& title = "photometria view factors");
+                                    const View3dOutput& view3d = {});
 
 // Point-to-surface factors (P points × G surfaces) as CSV: header "point,<name_1>,...,<name_G>",
-// then "<id>,F_1,...,F_G" per point, 17 significant digits. Throws Error(Io).
-void write_point_factors(const std::string& path, const std::vector<std::string>& point_ids,
+// then "<id>,F_1,...,F_G" per point, 17 significant digits, into `out`'s temporary file (not
+// committed). Throws Error(Io).
+void write_point_factors(const AtomicOutput& out, const std::vector<std::string>& point_ids,
                          const std::vector<std::string>& surface_names, const ViewFactorRows& P);
 
 // "csv", "sparse", "binary", "view3d"; false when unknown.

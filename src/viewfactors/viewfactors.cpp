@@ -5,18 +5,59 @@
 #include <cctype>
 #include <cmath>
 #include <fstream>
+#include <iomanip>
 #include <sstream>
 
 #include "kernels/lambert.h"
+#include "pipeline/memory.h"
 #include "util/error.h"
 #include "visibility/visibility.h"
 
 namespace photometria {
 
+namespace {
+
+// The memory estimate of viewfactors.h (ViewFactorMemory) and the refusal; returns the layout
+// of the patch matrix. The same rule and message as the solve's (pipeline/solve.cpp).
+MatrixLayout check_memory(const Scene& scene, const PatchMesh& mesh, const ViewFactorOptions& opt, ViewFactorMemory& m) {
+  m.patches = estimate_memory(mesh, opt.seed);
+  m.surfaces = make_aggregation(scene, mesh, opt.level).size();
+  const double n = mesh.size(), nnz = double(m.patches.nonzero_pairs), g = m.surfaces;
+  const MatrixLayout layout = choose_layout(opt.matrix_layout, opt.matrix_precision, n, nnz);
+  m.storage = std::string(layout_name(layout)) + " " + precision_name(opt.matrix_precision);
+  if (opt.matrix_layout != MatrixLayout::Auto) {
+    m.storage_reason = "requested (--matrix " + std::string(layout_name(layout)) + ")";
+  } else {
+    std::ostringstream why;
+    why << "auto: " << std::setprecision(3) << (n > 1 ? 100.0 * nnz / (n * (n - 1)) : 0.0)
+        << "% of pairs face each other, so " << layout_name(layout) << " is smaller";
+    m.storage_reason = why.str();
+  }
+  m.matrix_bytes = matrix_bytes(layout, opt.matrix_precision, n, nnz);
+  m.output_bytes = 8.0 * g * g * (opt.enforcement ? 5.0 : 1.0) + 8.0 * double(std::max(opt.points, 0)) * g;
+  m.estimated_bytes = m.matrix_bytes + m.patches.per_patch_bytes * n + m.output_bytes;
+  m.limit_bytes = opt.max_memory_bytes > 0 ? opt.max_memory_bytes : available_memory_bytes();
+  m.limit_source = opt.max_memory_bytes > 0 ? "--max-memory" : "MemAvailable";
+  if (m.limit_bytes <= 0 || m.estimated_bytes <= m.limit_bytes) return layout;
+  const std::string limit = opt.max_memory_bytes > 0
+                                ? "--max-memory is " + format_bytes(m.limit_bytes)
+                                : "only " + format_bytes(m.limit_bytes) +
+                                      " is available (MemAvailable; set --max-memory to override)";
+  throw_bad_input("view factors need an estimated " + format_bytes(m.estimated_bytes) + " for " +
+                  format_count(mesh.size()) + " patches (" + m.storage + " form factors, " +
+                  format_count(m.surfaces) + " output surfaces) but " + limit +
+                  "; use a coarser mesh (--max-edge)" +
+                  (opt.matrix_precision == MatrixPrecision::Double ? std::string(", --matrix-precision float") : "") +
+                  (opt.level != AggregateLevel::Group ? std::string(", --by group") : "") + " or raise --max-memory");
+}
+
+}  // namespace
+
 PatchViewFactors compute_view_factors(const Scene& scene, const ViewFactorOptions& opt) {
   PatchViewFactors r;
   r.mesh = subdivide(scene, opt.patching);
   if (r.mesh.size() == 0) throw_bad_input(scene.source + ": no surface to compute view factors for");
+  const MatrixLayout layout = check_memory(scene, r.mesh, opt, r.memory);
   // Visibility choice: the same rule as the solve (pipeline/solve.cpp, VisibilityMode::Auto).
   std::string reason;
   switch (opt.visibility) {
@@ -46,6 +87,8 @@ PatchViewFactors compute_view_factors(const Scene& scene, const ViewFactorOption
   fill.visibility = r.visibility.get();
   fill.rays = opt.rays;
   fill.seed = opt.seed;
+  fill.layout = layout;
+  fill.precision = opt.matrix_precision;
   r.F = fill_form_factors(r.mesh, fill, r.fill);
   return r;
 }
@@ -253,6 +296,31 @@ std::vector<SurfacePoint> load_points(const std::string& path) {
   }
   if (points.empty()) throw_bad_input(path + ": no points");
   return points;
+}
+
+std::vector<double> view3d_emissivities(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw_io("cannot open '" + path + "'");
+  std::vector<double> emit;
+  std::string line;
+  while (std::getline(in, line)) {
+    // As the loader: '!' starts a comment anywhere, a token starting with '#' ends the line;
+    // records are case-insensitive.
+    const size_t cut = line.find('!');
+    if (cut != std::string::npos) line.resize(cut);
+    std::istringstream tokens(line);
+    std::vector<std::string> t;
+    for (std::string w; tokens >> w && w[0] != '#';) t.push_back(w);
+    if (t.empty()) continue;
+    std::string rec = t[0];
+    for (char& c : rec) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    if (rec == "E" || rec == "END") break;
+    if ((rec != "S" && rec != "O") || t.size() < 9) continue;
+    char* end = nullptr;
+    const double e = std::strtod(t[8].c_str(), &end);
+    emit.push_back(end && *end == '\0' && std::isfinite(e) ? e : 0.0);
+  }
+  return emit;
 }
 
 ViewFactorMatrix point_view_factors(const std::vector<SurfacePoint>& points, const PatchMesh& mesh,

@@ -36,6 +36,34 @@ struct ViewFactorOptions {
   VisibilityMode visibility = VisibilityMode::Auto;
   int rays = 576;                     // rays per (receiver point, patch) in ray mode
   uint64_t seed = 1;
+  // Storage of the patch-level matrix (formfactors/storage.h): Auto picks dense or sparse from
+  // the estimated share of facing pairs, as `solve` does.
+  MatrixLayout matrix_layout = MatrixLayout::Auto;
+  MatrixPrecision matrix_precision = MatrixPrecision::Double;
+  // Memory guard: refuse (BadInput) before the fill when the estimate (ViewFactorMemory) exceeds
+  // this many bytes; 0 = MemAvailable (pipeline/memory.h), as `solve --max-memory`.
+  double max_memory_bytes = 0.0;
+  // What the caller does after the fill, so that the estimate covers it: the level it
+  // aggregates to (the G × G result is dense), whether it enforces (--enforce: four more G × G
+  // matrices at the peak) and how many point rows (P × G) it computes.
+  AggregateLevel level = AggregateLevel::Patch;
+  bool enforcement = false;
+  int points = 0;
+};
+
+// The memory estimate, made after patching and before visibility and the fill.
+//   estimated_bytes = matrix_bytes + per-patch arrays (MemoryEstimate::per_patch_bytes × N)
+//                     + output_bytes
+//   matrix_bytes    = the N × N patch matrix in `storage` (storage.h matrix_bytes())
+//   output_bytes    = 8 G² (aggregated matrix) × (1 + 4 with enforcement) + 8 P G (points)
+struct ViewFactorMemory {
+  MemoryEstimate patches;             // pipeline/memory.h: facing pairs, per-patch bytes
+  int surfaces = 0;                   // G, rows of the output
+  std::string storage;                // "dense double", "sparse float", ...
+  std::string storage_reason;         // "requested (--matrix sparse)" or "auto: ..."
+  double matrix_bytes = 0.0, output_bytes = 0.0, estimated_bytes = 0.0;
+  double limit_bytes = 0.0;           // the limit checked against (0 = unknown: not checked)
+  std::string limit_source;           // "--max-memory" or "MemAvailable"
 };
 
 // Patch-level result of the fill.
@@ -43,12 +71,14 @@ struct PatchViewFactors {
   PatchMesh mesh;
   FormFactors F;                      // N × N patch factors (row i = from patch i)
   FillStats fill;
+  ViewFactorMemory memory;
   std::string visibility_mode;        // "none", "exact" or "rays"
   std::string visibility_reason;
   std::shared_ptr<const Visibility> visibility;  // null when visibility_mode is "none"
 };
 
-// Throws photometria::Error(BadInput) when the scene has no patch.
+// Throws photometria::Error(BadInput) when the scene has no patch, or when the memory estimate
+// exceeds the limit (one line naming both; nothing has been filled yet).
 PatchViewFactors compute_view_factors(const Scene& scene, const ViewFactorOptions& options);
 
 // The surfaces of the requested level: one entry per output row/column.
@@ -99,6 +129,11 @@ struct SurfacePoint {
 // array of such objects) or CSV (x,y,z,nx,ny,nz per line, optional id as a 7th column, an
 // optional header line starting with a letter). Normals are normalised; zero normals refused.
 std::vector<SurfacePoint> load_points(const std::string& path);
+
+// The `emit` field of a View3D input's S and O lines, indexed by surface number − 1 (which is
+// Face::source_face of the loaded scene). Call it after load_scene() accepted the file: only the
+// fields are read here (comments, case and the end record as in scene/load_view3d.cpp).
+std::vector<double> view3d_emissivities(const std::string& path);
 
 // P × G: F(dA_x -> surface I) = Σ_{j∈I} F_vis(dA_x -> P_j), Lambert's closed form
 // (kernels/lambert.h, seed 002 eq. 3) with visibility as in the vertex gather of the solve
