@@ -170,6 +170,7 @@ int run(const ViewFactorArgs& a) {
                           {"limit_source", m.limit_source}};
   j["pairs"] = {{"evaluated", r.fill.pairs_evaluated},     {"backfacing", r.fill.pairs_backfacing},
                 {"per_pair_gauss", r.fill.pairs_gauss},     {"per_pair_adaptive", r.fill.pairs_adaptive},
+                {"exact_rectangles", r.fill.pairs_exact_rectangles},
                 {"fixed_rule", r.fill.pairs_fixed_rule},     {"fixed_rule_order", opt.quadrature},
                 {"visibility_tested", r.fill.pairs_tested}, {"visibility_culled", r.fill.pairs_culled},
                 {"occluded", r.fill.pairs_occluded},         {"rays_cast", r.fill.rays_cast},
@@ -203,7 +204,7 @@ int run(const ViewFactorArgs& a) {
             << "  memory estimate: " << pm::format_bytes(m.estimated_bytes) << " for this run ("
             << pm::format_bytes(m.matrix_bytes) << " patch matrix, " << pm::format_bytes(m.output_bytes)
             << " output); limit " << pm::format_bytes(m.limit_bytes) << " (" << m.limit_source << ")\n"
-            << "  pairs: " << r.fill.pairs_gauss << " per-pair Gauss, " << r.fill.pairs_adaptive << " adaptive, "
+            << "  pairs: " << r.fill.pairs_gauss << " per-pair Gauss, " << r.fill.pairs_adaptive << " adaptive, " << r.fill.pairs_exact_rectangles << " exact rectangles, "
             << r.fill.pairs_fixed_rule << " fixed order " << opt.quadrature << " (visibility), "
             << r.fill.pairs_backfacing << " facing away; " << r.fill.pairs_tested << " shaft-tested, "
             << r.fill.pairs_culled << " culled, " << r.fill.pairs_occluded << " fully occluded, " << r.fill.rays_cast

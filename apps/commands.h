@@ -14,3 +14,4 @@ Command add_solve_command(CLI::App& app);
 Command add_validate_command(CLI::App& app);
 Command add_formfactor_command(CLI::App& app);
 Command add_viewfactors_command(CLI::App& app);
+Command add_bench_command(CLI::App& app);

@@ -13,7 +13,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", "photometria 0.1.0");
   const std::vector<Command> commands = {add_solve_command(app), add_validate_command(app), add_formfactor_command(app),
-                                         add_viewfactors_command(app)};
+                                         add_viewfactors_command(app), add_bench_command(app)};
 
   try {
     app.parse(argc, argv);

@@ -6,6 +6,7 @@
 #include <random>
 
 #include "kernels/kernels.h"
+#include "kernels/lambert_batch.h"
 
 namespace pm = photometria;
 
@@ -57,11 +58,42 @@ void run_plain(benchmark::State& state, int corners) {
   state.SetItemsProcessed(state.iterations() * static_cast<int64_t>(recv.size()));
 }
 
+// The batched kernel (lambert_batch.h) on exactly the configurations of `run`: one receiver at the
+// origin (same normal) against the polygon translated by −p for each of the 1,024 receivers, i.e.
+// a row of 1,024 sources with the same relative geometry, evaluated in one call. Items are
+// point-to-polygon evaluations, as above. The clipped variant mostly takes the scalar fallback.
+void run_batch(benchmark::State& state, bool tilted, int corners) {
+  const auto recv = receivers(tilted);
+  const pm::Vec3* poly = corners == 4 ? kQuad : kTriangle;
+  pm::PolygonBatch batch;
+  for (const auto& r : recv) {
+    pm::Vec3 v[4];
+    for (int i = 0; i < corners; ++i) v[i] = poly[i] - r.point;
+    batch.push_back(v, corners);
+  }
+  const pm::Receiver r0{pm::Vec3::Zero(), recv.front().normal};
+  std::vector<double> out(recv.size());
+  double sum = 0.0;
+  int scalar_calls = 0;
+  for (auto _ : state) {
+    scalar_calls = pm::lambert_form_factors(r0, batch, out.data());
+    sum += out[17];
+    benchmark::ClobberMemory();
+  }
+  benchmark::DoNotOptimize(sum);
+  state.SetItemsProcessed(state.iterations() * static_cast<int64_t>(recv.size()));
+  state.counters["scalar_share"] = static_cast<double>(scalar_calls) / static_cast<double>(recv.size());
+  state.SetLabel(pm::lambert_batch_isa());
+}
+
 BENCHMARK_CAPTURE(run_plain, plain_acos_quad, 4);
 BENCHMARK_CAPTURE(run_plain, plain_acos_triangle, 3);
 BENCHMARK_CAPTURE(run, lambert_quad, pm::Kernel::Lambert, false, 4);
 BENCHMARK_CAPTURE(run, lambert_triangle, pm::Kernel::Lambert, false, 3);
 BENCHMARK_CAPTURE(run, lambert_quad_clipped, pm::Kernel::Lambert, true, 4);
+BENCHMARK_CAPTURE(run_batch, lambert_batch_quad, false, 4);
+BENCHMARK_CAPTURE(run_batch, lambert_batch_triangle, false, 3);
+BENCHMARK_CAPTURE(run_batch, lambert_batch_quad_clipped, true, 4);
 BENCHMARK_CAPTURE(run, iwanicki_quad, pm::Kernel::Iwanicki, false, 4);
 BENCHMARK_CAPTURE(run, iwanicki_triangle, pm::Kernel::Iwanicki, false, 3);
 BENCHMARK_CAPTURE(run, stark_vertex_quad, pm::Kernel::StarkVertex, false, 4);

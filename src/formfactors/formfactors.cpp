@@ -4,10 +4,13 @@
 
 #include <algorithm>
 #include <atomic>
+#include <memory>
 
+#include "formfactors/aligned_rectangles.h"
 #include "formfactors/pair_integration.h"
 #include "formfactors/quadrature.h"
 #include "kernels/lambert.h"
+#include "kernels/lambert_batch.h"
 
 namespace photometria {
 
@@ -29,6 +32,17 @@ bool facing_away(const PatchMesh& mesh, int i, int j, double tol) {
   return front_of_b <= tol;
 }
 
+PolygonBatch patch_batch(const PatchMesh& mesh) {
+  PolygonBatch batch;
+  batch.reserve(mesh.size());
+  Vec3 v[4];
+  for (int j = 0; j < mesh.size(); ++j) {
+    mesh.polygon(j, v);
+    batch.push_back(v, mesh.patches[j].corner_count);
+  }
+  return batch;
+}
+
 FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options, FillStats& stats) {
   const int n = mesh.size();
   FormFactors F(n, options.layout == MatrixLayout::Sparse ? MatrixLayout::Sparse : MatrixLayout::Dense, options.precision);
@@ -37,13 +51,21 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
   const bool rays_mode = vis && vis->method() == VisibilityMethod::Rays;
   std::atomic<int> rows_done{0};
   long long evaluated = 0, backfacing = 0, tested = 0, culled = 0, occluded = 0, rays = 0, above = 0, rescaled = 0;
-  long long fixed_rule = 0, gauss = 0, adaptive = 0, kernels = 0;
-  // The per-pair rule integrates the unoccluded kernel; it applies when nothing can block.
-  const bool per_pair = options.tolerance > 0.0 && !vis;
+  long long fixed_rule = 0, gauss = 0, adaptive = 0, kernels = 0, exact_rectangles = 0;
+  // Accuracy mode: every pair nothing can block (no visibility, or an empty shaft) gets the
+  // per-pair rule, and pairs of aligned rectangles their closed form; blocked pairs the fixed rule.
+  const bool per_pair = options.tolerance > 0.0;
+  std::unique_ptr<AlignedRectangles> rects;
+  if (per_pair && options.exact_rectangles) rects = std::make_unique<AlignedRectangles>(mesh);
+  // Every patch as one SIMD batch: a receiver point's kernel to all sources in one call.
+  const PolygonBatch sources = patch_batch(mesh);
+  // Without visibility, a closed-form pair is computed once, from its lower-index patch, and the
+  // other entry follows by reciprocity (dense storage: filled in place after the loop).
+  const bool mirror = rects && !vis && F.layout() == MatrixLayout::Dense;
   double max_point_sum = 0.0;
 
 #pragma omp parallel for schedule(dynamic, 4) \
-    reduction(+ : evaluated, backfacing, tested, culled, occluded, rays, above, rescaled, fixed_rule, gauss, adaptive, kernels) \
+    reduction(+ : evaluated, backfacing, tested, culled, occluded, rays, above, rescaled, fixed_rule, gauss, adaptive, kernels, exact_rectangles) \
     reduction(max : max_point_sum)
   for (int i = 0; i < n; ++i) {
     Vec3 ri[4], sj[4];
@@ -58,21 +80,71 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
     std::vector<double> unoccluded(nq);
     std::vector<int> occluders;
     std::vector<double> row(n, 0.0);  // F_i,· before it is stored
+    // Lambert's kernel from each receiver point to every patch (nq × n), batched, on first need.
+    std::vector<double> kernel;
+    auto kernel_at = [&](int q, int j) {
+      if (kernel.empty()) {
+        kernel.resize(size_t(nq) * n);
+        for (int k = 0; k < nq; ++k)
+          lambert_form_factors(Receiver{rule[k].point, pi.normal}, sources, 0, n, kernel.data() + size_t(k) * n);
+      }
+      return kernel[size_t(q) * n + j];
+    };
     for (int j = 0; j < n; ++j) {
-      if (j == i || facing_away(mesh, i, j, tol)) { backfacing += (j != i); continue; }
-      const Patch& pj = mesh.patches[j];
-      mesh.polygon(j, sj);
-      if (per_pair) {
-        const PairResult r = pair_form_factor(ri, pi.corner_count, pi.normal, sj, pj.corner_count, pj.normal,
-                                              options.tolerance);
-        ++evaluated;
-        kernels += r.evaluations;
-        gauss += r.rule == PairRule::Gauss;
-        adaptive += r.rule == PairRule::Adaptive;
-        row[j] = r.form_factor;
-        point_sum[0] += r.form_factor;  // the row sum stands in for the per-point check
+      if (j == i) continue;
+      const bool analytic = rects && rects->eligible(i, j);
+      double area_factor = 0.0;
+      if (analytic) {
+        if (mirror && j < i) continue;  // from row j's entry after the loop (reciprocity)
+        area_factor = rects->area_factor(i, j);  // 0 exactly when the pair cannot exchange light
+        const int count = mirror ? 2 : 1;        // with mirroring this stands for (i, j) and (j, i)
+        if (!(area_factor > 0.0)) { backfacing += count; continue; }
+        if (mirror) {
+          row[j] = area_factor / pi.area;
+          evaluated += 2;
+          exact_rectangles += 2;
+          continue;
+        }
+      } else if (facing_away(mesh, i, j, tol)) {
+        ++backfacing;
         continue;
       }
+      const Patch& pj = mesh.patches[j];
+      bool have_sj = false;  // P_j's corners, fetched only where needed (not for closed forms)
+      auto source = [&]() {
+        if (!have_sj) mesh.polygon(j, sj);
+        have_sj = true;
+        return sj;
+      };
+      bool shaft_known = false;
+      if (per_pair) {
+        if (vis) {
+          source();
+          ++tested;
+          vis->culler().occluders(ri, pi.corner_count, sj, pj.corner_count, occluders);
+          shaft_known = true;
+        }
+        if (!vis || occluders.empty()) {
+          culled += vis != nullptr;
+          double f;
+          if (analytic) {
+            f = area_factor / pi.area;
+            ++exact_rectangles;
+          } else {
+            const PairResult r = pair_form_factor(ri, pi.corner_count, pi.normal, source(), pj.corner_count, pj.normal,
+                                                  options.tolerance);
+            f = r.form_factor;
+            kernels += r.evaluations;
+            gauss += r.rule == PairRule::Gauss;
+            adaptive += r.rule == PairRule::Adaptive;
+          }
+          ++evaluated;
+          row[j] = f;
+          for (int q = 0; q < nq; ++q) point_sum[q] += f;  // the pair's value stands in for each point's
+          continue;
+        }
+      }
+      source();
       ++fixed_rule;
       kernels += nq;
       double f0 = 0.0;
@@ -84,14 +156,16 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
         // the point itself would count half a hemisphere twice. With visibility on, take 0.
         unoccluded[q] = vis && std::abs(pj.normal.dot(rule[q].point - pj.centroid)) <= vis->culler().tolerance()
                             ? 0.0
-                            : lambert_form_factor(Receiver{rule[q].point, pi.normal}, sj, pj.corner_count);
+                            : kernel_at(q, j);
         f0 += rule[q].weight * unoccluded[q];
       }
       ++evaluated;
       double f = f0;
       if (vis && f0 > 0.0) {
-        ++tested;
-        vis->culler().occluders(ri, pi.corner_count, sj, pj.corner_count, occluders);
+        if (!shaft_known) {
+          ++tested;
+          vis->culler().occluders(ri, pi.corner_count, sj, pj.corner_count, occluders);
+        }
         if (occluders.empty()) {
           ++culled;
         } else {
@@ -133,6 +207,14 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
     const int done = ++rows_done;
     if (options.progress && omp_get_thread_num() == 0) options.progress(double(done) / n);
   }
+  if (mirror) {
+    std::vector<double> areas(n);
+    for (int i = 0; i < n; ++i) areas[i] = mesh.patches[i].area;
+    F.mirror_lower([&](int i, int j) { return rects->eligible(i, j); }, areas.data());
+    // The rows are complete only now; without visibility every point's sum is its row's sum.
+    max_point_sum = 0.0;
+    for (int i = 0; i < n; ++i) max_point_sum = std::max(max_point_sum, F.row_sum(i));
+  }
   stats.pairs_evaluated += evaluated;
   stats.pairs_backfacing += backfacing;
   stats.pairs_tested += tested;
@@ -142,6 +224,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
   stats.pairs_fixed_rule += fixed_rule;
   stats.pairs_gauss += gauss;
   stats.pairs_adaptive += adaptive;
+  stats.pairs_exact_rectangles += exact_rectangles;
   stats.kernel_evaluations += kernels;
   stats.above_unoccluded += above;
   stats.max_point_row_sum = std::max(stats.max_point_row_sum, max_point_sum);
@@ -154,30 +237,52 @@ FormFactorChecks check_form_factors(const PatchMesh& mesh, const FormFactors& F)
   const int n = mesh.size();
   if (n == 0) return c;
   double min_entry = 1.0, max_entry = 0.0, min_row = F.row_sum(0), max_row = min_row, recip = 0.0;
-  const bool sparse = F.layout() == MatrixLayout::Sparse;
-#pragma omp parallel for schedule(dynamic, 16) reduction(min : min_entry, min_row) reduction(max : max_entry, max_row, recip)
+  // Entries and row sums, row by row.
+#pragma omp parallel for schedule(dynamic, 16) reduction(min : min_entry, min_row) reduction(max : max_entry, max_row)
   for (int i = 0; i < n; ++i) {
     double row = 0.0;
     int stored = 0;
-    const double ai = mesh.patches[i].area;
     F.for_each_in_row(i, [&](int j, double f) {
       row += f;
       if (j == i) return;
       ++stored;
       min_entry = std::min(min_entry, f);
       max_entry = std::max(max_entry, f);
-      // Each unordered pair once: from its smaller index, or from the row that stores it when
-      // the transposed entry is a (sparse) zero.
-      if (j < i && !sparse) return;
-      const double fji = F(j, i);
-      if (j > i || fji == 0.0) {
-        const double aj = mesh.patches[j].area;
-        recip = std::max(recip, std::abs(ai * f - aj * fji) / std::min(ai, aj));
-      }
     });
-    if (sparse && stored < n - 1) min_entry = std::min(min_entry, 0.0);  // unstored entries are 0
+    if (stored < n - 1) min_entry = std::min(min_entry, 0.0);  // unstored (sparse) entries are 0
     min_row = std::min(min_row, row);
     max_row = std::max(max_row, row);
+  }
+  // Reciprocity |A_i F_ij − A_j F_ji| / min(A_i, A_j), each unordered pair once.
+  if (F.layout() == MatrixLayout::Dense) {
+    // In 64 × 64 tiles (I, J >= I), so that F_ji is read from a cached tile, not a far row.
+    constexpr int kTile = 64;
+    const int tiles = (n + kTile - 1) / kTile;
+#pragma omp parallel for schedule(dynamic, 1) reduction(max : recip)
+    for (int bi = 0; bi < tiles; ++bi)
+      for (int bj = bi; bj < tiles; ++bj) {
+        const int i1 = std::min(n, (bi + 1) * kTile), j1 = std::min(n, (bj + 1) * kTile);
+        for (int i = bi * kTile; i < i1; ++i) {
+          const double ai = mesh.patches[i].area;
+          for (int j = std::max(i + 1, bj * kTile); j < j1; ++j) {
+            const double aj = mesh.patches[j].area;
+            recip = std::max(recip, std::abs(ai * F(i, j) - aj * F(j, i)) / std::min(ai, aj));
+          }
+        }
+      }
+  } else {
+    // Sparse: from each stored entry; a pair stored only one way is seen from that side.
+#pragma omp parallel for schedule(dynamic, 16) reduction(max : recip)
+    for (int i = 0; i < n; ++i) {
+      const double ai = mesh.patches[i].area;
+      F.for_each_in_row(i, [&](int j, double f) {
+        if (j == i) return;
+        const double fji = F(j, i);
+        if (j < i && fji != 0.0) return;  // counted from row j
+        const double aj = mesh.patches[j].area;
+        recip = std::max(recip, std::abs(ai * f - aj * fji) / std::min(ai, aj));
+      });
+    }
   }
   c.min_entry = n == 1 ? 0.0 : min_entry;
   c.max_entry = max_entry;

@@ -1,5 +1,8 @@
 // Form-factor assembly: F_ij from patch i to patch j for every pair of patches.
 //
+// Kernel evaluations are batched: Lambert's kernel from one receiver point to every patch is one
+// SIMD call (kernels/lambert_batch.h), identical to the scalar kernel to rounding.
+//
 //   F_ij = Σ_q w_q F_vis(x_q -> P_j),   F_vis(x -> P) = visible part of F(dA_x -> P)
 // with F(dA -> P) Lambert's closed form (kernels/lambert.h), x_q, w_q the receiver quadrature on
 // patch i (formfactors/quadrature.h) and F_vis from visibility/visibility.h per receiver point:
@@ -21,6 +24,7 @@
 #include <functional>
 
 #include "formfactors/storage.h"
+#include "kernels/lambert_batch.h"
 #include "patching/patching.h"
 #include "visibility/visibility.h"
 
@@ -30,7 +34,12 @@ struct FillOptions {
   int quadrature = 1;                        // receiver rule order (1 = centroid)
   double tolerance = 0.0;                    // > 0: per-pair rule to this relative accuracy
                                              // (formfactors/pair_integration.h) for pairs no
-                                             // face can block; 0: the fixed `quadrature` rule
+                                             // face can block (an empty shaft), and the exact
+                                             // closed form for pairs of aligned rectangles
+                                             // (formfactors/aligned_rectangles.h); 0: the fixed
+                                             // `quadrature` rule for every pair
+  bool exact_rectangles = true;              // with tolerance > 0: use the rectangle closed form
+                                             // (false: the per-pair rule there too, for studies)
   const Visibility* visibility = nullptr;    // null: no occlusion test (every pair unoccluded)
   int rays = 576;                            // rays per (receiver point, source patch) in ray mode
   uint64_t seed = 1;                         // ray sampling seed (results repeat for a seed)
@@ -54,6 +63,7 @@ struct FillStats {
   long long pairs_fixed_rule = 0;  // pairs integrated with the fixed `quadrature` rule
   long long pairs_gauss = 0;       // per-pair rule: far pairs, Gauss order from the distance ratio
   long long pairs_adaptive = 0;    // per-pair rule: near or touching pairs, adaptive bisection
+  long long pairs_exact_rectangles = 0;  // per-pair mode: aligned rectangles, closed form (exact)
   long long kernel_evaluations = 0;
 };
 
@@ -72,6 +82,9 @@ bool facing_away(const PatchMesh& mesh, int i, int j, double tol);
 // Rows are computed into a per-thread dense buffer and stored with FormFactors::set_row, so the
 // matrix never exists in a larger layout than the one asked for.
 FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options, FillStats& stats);
+
+// Every patch of `mesh` as one SIMD batch of source polygons (kernels/lambert_batch.h).
+PolygonBatch patch_batch(const PatchMesh& mesh);
 
 // Geometric tolerance for plane tests: a few ulps of the scene's size.
 double plane_tolerance(const PatchMesh& mesh);

@@ -68,7 +68,7 @@ nlohmann::json summary_json(const Scene& scene, const SolveSummary& s) {
   j["quadrature"] = s.quadrature;
   j["lights"] = s.lights;
   j["pair_rules"] = {{"accuracy", s.accuracy}, {"fixed", s.fill.pairs_fixed_rule}, {"gauss", s.fill.pairs_gauss},
-                     {"adaptive", s.fill.pairs_adaptive}, {"kernel_evaluations", s.fill.kernel_evaluations}};
+                     {"adaptive", s.fill.pairs_adaptive}, {"exact_rectangles", s.fill.pairs_exact_rectangles}, {"kernel_evaluations", s.fill.kernel_evaluations}};
   j["matrix"] = {{"storage", s.matrix_storage}, {"reason", s.matrix_storage_reason}, {"bytes", s.matrix_bytes},
                  {"estimated_bytes", s.estimated_bytes}};
   j["memory_estimate"] = {{"dense_bytes", s.memory.dense_bytes}, {"sparse_bytes", s.memory.sparse_bytes},
@@ -116,9 +116,10 @@ std::string summary_table(const Scene& scene, const SolveSummary& s) {
                       << ", reciprocity " << std::setprecision(3) << s.checks.reciprocity_error << "\n";
   row("visibility") << s.visibility_mode << " — " << s.visibility_reason << "\n";
   if (s.rays) row("rays") << s.fill.rays_cast + s.vertex_rays_cast << " cast (" << s.rays << " per pair)\n";
-  if (s.fill.pairs_gauss + s.fill.pairs_adaptive > 0)
+  if (s.fill.pairs_gauss + s.fill.pairs_adaptive + s.fill.pairs_exact_rectangles > 0)
     row("pair rules") << "accuracy " << s.accuracy << ": " << s.fill.pairs_gauss << " Gauss (far), "
-                      << s.fill.pairs_adaptive << " adaptive (near/touching), " << s.fill.pairs_fixed_rule
+                      << s.fill.pairs_adaptive << " adaptive (near/touching), " << s.fill.pairs_exact_rectangles
+                      << " exact (aligned rectangles), " << s.fill.pairs_fixed_rule
                       << " fixed-rule (occluded)\n";
   else
     row("quadrature") << s.quadrature << (s.quadrature == 1 ? " (centroid)" : " (Gauss)") << "\n";

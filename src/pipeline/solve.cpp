@@ -12,6 +12,7 @@
 
 #include "formfactors/quadrature.h"
 #include "kernels/lambert.h"
+#include "kernels/lambert_batch.h"
 #include "pipeline/direct_light.h"
 #include "util/error.h"
 
@@ -90,22 +91,28 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
   r.point_irradiance = ChannelMatrix::Zero(np, 3);
   r.point_radiosity = ChannelMatrix::Zero(np, 3);
   long long evaluated = 0, rays = 0, tested = 0, culled = 0;
+  // Every patch as one SIMD batch: a point's kernel to all patches in one call (lambert_batch.h).
+  const PolygonBatch sources = patch_batch(mesh);
 #pragma omp parallel for schedule(dynamic, 16) reduction(+ : evaluated, rays, tested, culled)
   for (int o = 0; o < np; ++o) {
     const OutputPoint& x = r.points[o];
     Eigen::RowVector3d h = Eigen::RowVector3d::Zero();
     Vec3 src[4];
     std::vector<int> occluders;
+    const Receiver receiver{x.position, x.normal, x.approach};
+    thread_local std::vector<double> kernel;
+    kernel.resize(mesh.size());
+    lambert_form_factors(receiver, sources, 0, mesh.size(), kernel.data());
     for (int j = 0; j < mesh.size(); ++j) {
+      double f = kernel[j];
+      if (f == 0.0) continue;  // behind the patch, below the horizon, or edge-on: nothing to add
       const Patch& pj = mesh.patches[j];
       double above = -1.0;
       for (int k = 0; k < pj.corner_count; ++k) above = std::max(above, x.normal.dot(mesh.points[pj.corners[k]] - x.position));
       if (above <= tol || pj.normal.dot(x.position - pj.centroid) < -tol) continue;
-      mesh.polygon(j, src);
-      const Receiver receiver{x.position, x.normal, x.approach};
-      double f = lambert_form_factor(receiver, src, pj.corner_count);
       ++evaluated;
       if (f > 0.0 && vis) {
+        mesh.polygon(j, src);
         ++tested;
         vis->culler().occluders(&x.position, 1, src, pj.corner_count, occluders);
         if (occluders.empty()) ++culled;

@@ -1,0 +1,153 @@
+// Lambert's closed form for one receiver point against many polygons at once (SIMD over sources).
+//
+//   F(dA -> P_k) = -1/(2π) Σ_i Θ_i  N · (a_i × a_{i+1}) / |a_i × a_{i+1}|,   a_i = v_i - p,
+//   Θ_i = atan2(|a_i × a_{i+1}|, a_i · a_{i+1})
+// Heitz 2017 (seed 000) eq. (1); Stark 2000 (seed 002) eq. (3) — the formula of lambert.h, whose
+// conventions (one-sided, horizon clipping, in-plane and boundary limits, atan2, edge normals
+// a_i × (v_{i+1} - v_i)) hold here unchanged: lambert_form_factors() returns, polygon by
+// polygon, what lambert_form_factor() returns, to rounding (≤ 1e-13 relative, or 1e-16 absolute
+// for values below 1e-3; tests/test_kernels_batch.cpp).
+//
+// What is batched: one receiver (point, normal) against a run of source polygons of at most four
+// corners, stored as a structure of arrays (PolygonBatch). This is the shape of the form-factor
+// fill and of the per-vertex gather: one receiver point against all patches of a row. With AVX2
+// four polygons are evaluated per instruction stream (double precision throughout), 6–8× the
+// scalar kernel's rate on unclipped quads (bench/bench_kernels.cpp, run_batch/lambert_batch_*).
+//
+// When the scalar kernel is called instead (per polygon, with exactly its arguments, so every
+// special case keeps lambert_form_factor()'s semantics):
+//  - the polygon is degenerate (zero Newell vector), has fewer than 3 vertices or a non-finite
+//    coordinate;
+//  - some vertex lies on or below the receiver's horizon (N · a_i not clearly > 0) while not all
+//    of them are clearly below it: the polygon would be clipped;
+//  - the receiver is neither clearly in front of the polygon's plane nor clearly behind it (the
+//    in-plane and boundary cases, and polygons seen edge-on). "Clearly" means by more than a
+//    bound on the rounding of both kernels' plane tests: a few ulps of the coordinates'
+//    magnitude, more for polygons that are far away or thin compared with their size;
+//  - the edge terms cancel so much that the two kernels' roundings could differ by more than
+//    the agreement above (Σ_i |term_i| > 1/8 and > 128·F; large polygons seen at grazing
+//    incidence from close by);
+//  - the CPU has no AVX2 + FMA: then every polygon goes to the scalar kernel (same results,
+//    scalar speed). The AVX2 code lives in its own translation unit (lambert_batch_avx2.cpp)
+//    and is reached only after a runtime CPU check, so the binary runs on any x86-64.
+// Polygons that the receiver clearly sees from behind (one-sided) or that lie wholly and clearly
+// below its horizon get 0 without a scalar call; that is the scalar kernel's value there too.
+#pragma once
+
+#ifndef PHOTOMETRIA_LAMBERT_BATCH_INTERNAL_ONLY  // see the end of this file
+
+#include <array>
+#include <cstddef>
+#include <new>
+#include <vector>
+
+#include "kernels/lambert.h"
+
+namespace photometria {
+
+// std::allocator with 64-byte alignment (a cache line; any SIMD width up to AVX-512).
+template <class T>
+struct AlignedAllocator {
+  using value_type = T;
+  static constexpr std::align_val_t kAlignment{64};
+  AlignedAllocator() = default;
+  template <class U>
+  AlignedAllocator(const AlignedAllocator<U>&) noexcept {}
+  T* allocate(std::size_t n) { return static_cast<T*>(::operator new(n * sizeof(T), kAlignment)); }
+  void deallocate(T* p, std::size_t) noexcept { ::operator delete(p, kAlignment); }
+  template <class U>
+  bool operator==(const AlignedAllocator<U>&) const noexcept { return true; }
+};
+using AlignedDoubles = std::vector<double, AlignedAllocator<double>>;
+
+// Polygons of 3 or 4 corners as a structure of arrays, built by push_back() (treat the arrays as
+// read-only). Every array has `padded` entries (`size` rounded up to kPadding); entry k describes
+// polygon k, entries size..padded-1 are padding (zeros, kind 0). All lengths in metres.
+struct PolygonBatch {
+  static constexpr int kPadding = 8;  // multiple of every SIMD width in doubles (AVX-512: 8)
+
+  int size = 0;    // number of polygons
+  int padded = 0;  // size rounded up to kPadding
+
+  // Corner c of polygon k is (x[c][k], y[c][k], z[c][k]), counter-clockwise seen from the front
+  // (lambert.h). Triangles repeat corner 2 as corner 3 (a zero-length edge adds nothing).
+  std::array<AlignedDoubles, 4> x, y, z;
+  // Number of vertices polygon k was given with (0–4); the scalar fallback is called with that.
+  std::vector<int> vertex_count;
+  // 3 (triangle) or 4 (quad) for polygons the SIMD kernel may evaluate; 0 for padding and for
+  // polygons that always take the scalar kernel (degenerate, < 3 vertices, non-finite).
+  // Stored as double so that the SIMD kernel can compare it directly.
+  AlignedDoubles kind;
+  // Unit front normal (normalized Newell vector) and the vertex mean, a point on the plane.
+  AlignedDoubles nx, ny, nz, ox, oy, oz;
+  // For the rounding margins: max |coordinate| over the corners; max distance of a corner from
+  // the vertex mean; 2·radius / |Newell vector| (1/m: ~1/radius for compact polygons, large for
+  // thin ones).
+  AlignedDoubles magnitude, radius, shape;
+
+  PolygonBatch() = default;
+  // From a list of polygons of 3 or 4 vertices (std::invalid_argument for more than 4; fewer
+  // than 3 is accepted and gives F = 0, as in the scalar kernel).
+  explicit PolygonBatch(const std::vector<Polygon>& polygons);
+
+  void reserve(int polygons);
+  // Appends one polygon (n ≤ 4 vertices, else std::invalid_argument).
+  void push_back(const Vec3* polygon, int n);
+  void push_back(const Polygon& polygon) { push_back(polygon.data(), static_cast<int>(polygon.size())); }
+
+  // Polygon k's vertices as given (vertex_count[k] of them) into `v`; returns their number.
+  int vertices(int k, Vec3 v[4]) const;
+};
+
+// out[k - begin] = lambert_form_factor(receiver, polygon k) for k in [begin, end),
+// 0 <= begin <= end <= sources.size (std::out_of_range otherwise). Dimensionless, each in
+// [0, 1]. `receiver.normal` is unit length; `receiver.approach` matters only for the boundary
+// limits (scalar path). `out` holds end - begin doubles (any alignment). Returns how many of the
+// polygons were handed to the scalar kernel (see above; all of them without AVX2) — a
+// diagnostic, the values do not depend on it. Thread-safe (no shared state besides the scalar
+// kernel's thread-local scratch).
+int lambert_form_factors(const Receiver& receiver, const PolygonBatch& sources, int begin, int end, double* out);
+inline int lambert_form_factors(const Receiver& receiver, const PolygonBatch& sources, double* out) {
+  return lambert_form_factors(receiver, sources, 0, sources.size, out);
+}
+
+// The SIMD instruction set lambert_form_factors() uses on this CPU: "avx2" or "scalar".
+const char* lambert_batch_isa();
+
+namespace lambert_batch_detail {
+// For tests: the batched kernel's atan2(y, x) for y >= 0 (lambert_batch_avx2.cpp, AVX2 + FMA),
+// and xsimd::atan2 for comparison, applied to n pairs; false (and `out` untouched) when this CPU
+// or build has no AVX2 path.
+bool simd_atan2(const double* y, const double* x, double* out, int n);
+bool xsimd_atan2(const double* y, const double* x, double* out, int n);
+// For tests and benchmarks: false makes lambert_form_factors() take the scalar kernel for every
+// polygon, as on a CPU without AVX2 (default true; affects all threads).
+void set_simd_enabled(bool enabled);
+}  // namespace lambert_batch_detail
+
+}  // namespace photometria
+
+#endif  // PHOTOMETRIA_LAMBERT_BATCH_INTERNAL_ONLY
+
+// Internal: the interface of the per-ISA translation units. Plain pointers and numbers only, so
+// that lambert_batch_avx2.cpp can include just this part (it defines
+// PHOTOMETRIA_LAMBERT_BATCH_INTERNAL_ONLY) and compile no Eigen or STL code with -mavx2.
+namespace photometria::lambert_batch_detail {
+inline constexpr int kPadding = 8;  // = PolygonBatch::kPadding
+// PolygonBatch's arrays and the receiver, as lambert_batch.cpp hands them over.
+struct View {
+  const double* x[4];
+  const double* y[4];
+  const double* z[4];
+  const double *kind, *nx, *ny, *nz, *ox, *oy, *oz, *magnitude, *radius, *shape;
+  double p[3], n[3];   // receiver point and normal
+  double p_magnitude;  // max |p coordinate|
+};
+// Writes out[k - begin] for k in [begin, end) — the form factor, or 0 — and the indices k whose
+// value the scalar kernel must supply into scalar_lanes (end - begin entries suffice); returns
+// how many there are.
+int lambert_avx2(const View& view, int begin, int end, double* out, int* scalar_lanes);
+bool simd_atan2_avx2(const double* y, const double* x, double* out, int n);
+bool xsimd_atan2_avx2(const double* y, const double* x, double* out, int n);
+bool avx2_compiled();  // false when the AVX2 file was built without -mavx2 (not x86-64)
+}  // namespace photometria::lambert_batch_detail
