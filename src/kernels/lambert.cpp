@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "kernels/lambert_batch.h"
 #include "kernels/visible_polygon.h"
 
 namespace photometria {
@@ -13,16 +14,27 @@ constexpr double kEps = std::numeric_limits<double>::epsilon();
 
 // Σ_i Θ_i N·(a_i × a_{i+1}) / |a_i × a_{i+1}|   (seed 000 eq. 1, seed 002 eq. 3)
 double lambert_sum(const Polygon& a, const Vec3& N) {
-  double sum = 0.0;
+  constexpr size_t kMax = 16;  // patches and clipped patches have at most 8 vertices
   const size_t n = a.size();
-  for (size_t i = 0; i < n; ++i) {
-    const Vec3& ai = a[i];
-    const Vec3& aj = a[(i + 1) % n];
-    const Vec3 edge_normal = ai.cross(aj - ai);  // = a_i × a_{i+1}, accurate near the edge's line
-    const double len = edge_normal.norm();
-    if (len == 0.0) continue;  // zero-length edge or receiver on its line: no area swept
-    const double theta = std::atan2(len, ai.dot(aj));
-    sum += theta * N.dot(edge_normal) / len;
+  double len[kMax], dot[kMax], proj[kMax], theta[kMax];
+  double sum = 0.0;
+  for (size_t start = 0; start < n; start += kMax) {
+    const size_t m = std::min(kMax, n - start);
+    for (size_t k = 0; k < m; ++k) {
+      const size_t i = start + k;
+      const Vec3& ai = a[i];
+      const Vec3& aj = a[(i + 1) % n];
+      // a_i × a_{i+1} = a_i × e = a_{i+1} × e (e = a_{i+1} − a_i), built on the shorter of the
+      // two: accurate when p is near the edge's line and when it is near a vertex.
+      const Vec3 e = aj - ai;
+      const Vec3 edge_normal = (ai.squaredNorm() <= aj.squaredNorm() ? ai : aj).cross(e);
+      len[k] = edge_normal.norm();
+      dot[k] = ai.dot(aj);
+      proj[k] = N.dot(edge_normal);
+    }
+    edge_angles(len, dot, theta, static_cast<int>(m));  // Θ_i = atan2(|a_i × a_{i+1}|, a_i · a_{i+1})
+    for (size_t k = 0; k < m; ++k)
+      if (len[k] != 0.0) sum += theta[k] * proj[k] / len[k];  // len 0: zero-length edge or p on its line
   }
   return sum;
 }

@@ -141,6 +141,11 @@ int lambert_form_factors(const Receiver& receiver, const PolygonBatch& sources, 
   return scalar_calls;
 }
 
+void edge_angles(const double* y, const double* x, double* out, int n) {
+  if (lambert_batch_detail::simd_atan2(y, x, out, n)) return;
+  for (int k = 0; k < n; ++k) out[k] = std::atan2(y[k], x[k]);
+}
+
 const char* lambert_batch_isa() { return use_avx2() ? "avx2" : "scalar"; }
 
 namespace lambert_batch_detail {

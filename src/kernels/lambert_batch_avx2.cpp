@@ -124,7 +124,12 @@ inline B lambert_sum(const V3* a, const V3& N, B& abs_sum) {
   for (int i = 0; i < n; ++i) {
     const V3& ai = a[i];
     const V3& aj = a[(i + 1) % n];
-    const V3 edge_normal = cross(ai, aj - ai);  // = a_i × a_{i+1}, accurate near the edge's line
+    // a_i × a_{i+1} = a_i × e = a_{i+1} × e, e = a_{i+1} − a_i: built on the shorter of the two
+    // (accurate near the edge's line and near a vertex), exactly as lambert.cpp does.
+    const V3 e = aj - ai;
+    const M first = dot(ai, ai) <= dot(aj, aj);
+    const V3 base{xsimd::select(first, ai.x, aj.x), xsimd::select(first, ai.y, aj.y), xsimd::select(first, ai.z, aj.z)};
+    const V3 edge_normal = cross(base, e);
     len[i] = dot(edge_normal, edge_normal);
     cos_part[i] = dot(ai, aj);
     normal_part[i] = dot(N, edge_normal);
