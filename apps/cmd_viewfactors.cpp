@@ -28,7 +28,7 @@ struct ViewFactorArgs {
   std::string scene, output, by = "group", format = "csv", enforce = "none", visibility = "auto", points,
                              points_output, max_memory, matrix = "auto", matrix_precision = "double";
   double threshold = 0.0, max_edge = 0.0, accuracy = 1e-7;
-  int rays = 576;
+  int rays = 576, threads = 0;
   bool json = false, flip_normals = false;
 };
 
@@ -89,6 +89,7 @@ int run(const ViewFactorArgs& a) {
   opt.accuracy = a.accuracy;
   opt.patching.max_edge = a.max_edge;
   opt.rays = a.rays;
+  opt.threads = a.threads;
   if (!a.max_memory.empty() && !pm::parse_memory_size(a.max_memory, opt.max_memory_bytes))
     pm::throw_bad_input("--max-memory: '" + a.max_memory + "' is not a size (e.g. 512M, 2G, 1.5GiB)");
   opt.matrix_layout = pm::parse_layout(a.matrix);
@@ -243,6 +244,7 @@ Command add_viewfactors_command(CLI::App& app) {
                   "Refuse before the fill when the memory estimate exceeds this: 512M, 2G, ... (default: MemAvailable)");
   sub->add_option("--matrix", a->matrix, "Patch form-factor storage: auto | dense | sparse (default auto: the smaller for the scene)");
   sub->add_option("--matrix-precision", a->matrix_precision, "Patch form-factor entries: double | float (default double; float halves the matrix)");
+  sub->add_option("--threads", a->threads, "Threads for the fill (default: all cores)");
   sub->add_flag("--flip-normals", a->flip_normals, "Reverse every face (inside-out exports)");
   sub->add_flag("--json", a->json, "Print a machine-readable summary on stdout");
   return {sub, [a]() { return run(*a); }};

@@ -359,3 +359,18 @@ TEST(CliViewFactors, BadInputIsRefused) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_FALSE(fs::exists(out));
 }
+
+// --threads is honoured and changes nothing but the speed: the patch matrix of a meshed cube is
+// byte-identical on one and two threads.
+TEST(CliViewFactors, ThreadCountDoesNotChangeTheMatrix) {
+  const fs::path one = scratch() / "one.csv", two = scratch() / "two.csv";
+  const CliRun r1 = run("viewfactors " + cube + " --by patch --max-edge 0.25000001 --threads 1 -o " + one.string());
+  const CliRun r2 = run("viewfactors " + cube + " --by patch --max-edge 0.25000001 --threads 2 -o " + two.string());
+  ASSERT_EQ(r1.exit_code, 0) << r1.err;
+  ASSERT_EQ(r2.exit_code, 0) << r2.err;
+  std::ifstream a(one), b(two);
+  const std::string ta((std::istreambuf_iterator<char>(a)), {}), tb((std::istreambuf_iterator<char>(b)), {});
+  EXPECT_GT(ta.size(), 1000u);
+  EXPECT_EQ(ta, tb);
+  EXPECT_EQ(run("viewfactors " + cube + " --threads x -o " + one.string()).exit_code, 1);
+}

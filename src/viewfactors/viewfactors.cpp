@@ -1,6 +1,8 @@
 // View factors: fill, aggregation, checks, enforcement, point factors (viewfactors.h).
 #include "viewfactors/viewfactors.h"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -54,6 +56,7 @@ MatrixLayout check_memory(const Scene& scene, const PatchMesh& mesh, const ViewF
 }  // namespace
 
 PatchViewFactors compute_view_factors(const Scene& scene, const ViewFactorOptions& opt) {
+  if (opt.threads > 0) omp_set_num_threads(opt.threads);
   PatchViewFactors r;
   r.mesh = subdivide(scene, opt.patching);
   if (r.mesh.size() == 0) throw_bad_input(scene.source + ": no surface to compute view factors for");

@@ -36,6 +36,7 @@ struct ViewFactorOptions {
   VisibilityMode visibility = VisibilityMode::Auto;
   int rays = 576;                     // rays per (receiver point, patch) in ray mode
   uint64_t seed = 1;
+  int threads = 0;                    // OpenMP threads for the fill; 0 = all cores
   // Storage of the patch-level matrix (formfactors/storage.h): Auto picks dense or sparse from
   // the estimated share of facing pairs, as `solve` does.
   MatrixLayout matrix_layout = MatrixLayout::Auto;
