@@ -101,4 +101,12 @@ BENCHMARK_CAPTURE(run, stark_vertex_triangle, pm::Kernel::StarkVertex, false, 3)
 BENCHMARK_CAPTURE(run, stark_image_quad, pm::Kernel::StarkImage, false, 4);
 BENCHMARK_CAPTURE(run, stark_image_triangle, pm::Kernel::StarkImage, false, 3);
 
+// The approximations (seed 003), for their cost next to the exact kernels' (their error is in
+// docs/kernels.md).
+BENCHMARK_CAPTURE(run, point_source_quad, pm::Kernel::PointSource, false, 4);
+BENCHMARK_CAPTURE(run, point_source_triangle, pm::Kernel::PointSource, false, 3);
+BENCHMARK_CAPTURE(run, tampieri_quad, pm::Kernel::Tampieri, false, 4);
+BENCHMARK_CAPTURE(run, tampieri_triangle, pm::Kernel::Tampieri, false, 3);
+BENCHMARK_CAPTURE(run, cross_product_quad, pm::Kernel::CrossProduct, false, 4);
+BENCHMARK_CAPTURE(run, cross_product_triangle, pm::Kernel::CrossProduct, false, 3);
 BENCHMARK_MAIN();
