@@ -19,6 +19,7 @@
 #include <set>
 #include <thread>
 
+#include "cli_run.h"
 #include "io/vtu.h"
 #include "pipeline/memory.h"
 #include "scene/scene.h"
@@ -27,10 +28,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct CliRun {
-  int exit_code;
-  std::string out, err;
-};
+using cli_test::CliRun;
 
 // A fresh folder per test, removed afterwards.
 class BadInput : public ::testing::Test {
@@ -50,21 +48,7 @@ class BadInput : public ::testing::Test {
   }
 
   CliRun run(const std::string& args) const {
-    const std::string err_file = (dir_.parent_path() / (dir_.filename().string() + ".stderr")).string();
-    const std::string cmd = std::string(PHOTOMETRIA_BINARY) + " " + args + " 2>" + err_file;
-    CliRun r{0, {}, {}};
-    FILE* pipe = popen(cmd.c_str(), "r");
-    char buf[4096];
-    size_t n;
-    while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) r.out.append(buf, n);
-    const int status = pclose(pipe);
-    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    std::ifstream in(err_file);
-    std::stringstream s;
-    s << in.rdbuf();
-    r.err = s.str();
-    fs::remove(err_file);
-    return r;
+    return cli_test::run_cli(args, (dir_.parent_path() / (dir_.filename().string() + ".stderr")).string());
   }
 
   // Solves `scene` into out.vtu and expects the failure: exit code, one line naming every part,

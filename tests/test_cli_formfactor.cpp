@@ -9,16 +9,14 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "cli_run.h"
 #include "refs.h"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-struct CliRun {
-  int exit_code;
-  std::string out, err;
-};
+using cli_test::CliRun;
 
 fs::path scratch() {
   const fs::path dir = fs::temp_directory_path() / ("photometria_ff_" + std::to_string(::getpid()));
@@ -27,20 +25,7 @@ fs::path scratch() {
 }
 
 CliRun run(const std::string& args) {
-  const fs::path err_file = scratch() / "stderr.txt";
-  const std::string cmd = std::string(PHOTOMETRIA_BINARY) + " " + args + " 2>" + err_file.string();
-  CliRun r{0, {}, {}};
-  FILE* pipe = popen(cmd.c_str(), "r");
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) r.out.append(buf, n);
-  const int status = pclose(pipe);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  std::ifstream e(err_file);
-  std::stringstream s;
-  s << e.rdbuf();
-  r.err = s.str();
-  return r;
+  return cli_test::run_cli(args, (scratch() / "stderr.txt").string());
 }
 
 std::string write(const std::string& name, const std::string& text) {

@@ -17,6 +17,8 @@
 #include <string>
 #include <vector>
 
+#include "cli_run.h"
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -24,10 +26,7 @@ namespace {
 // Exact values (Howell C-11 and C-14, unit cube), against View3D's printed 0.199825 / 0.200044.
 const double kOpposite = 0.19982489569838738, kAdjacent = 0.20004377607540315;
 
-struct CliRun {
-  int exit_code;
-  std::string out, err;
-};
+using cli_test::CliRun;
 
 fs::path scratch() {
   const fs::path dir = fs::temp_directory_path() / ("photometria_vf_" + std::to_string(::getpid()));
@@ -36,20 +35,7 @@ fs::path scratch() {
 }
 
 CliRun run(const std::string& args) {
-  const fs::path err_file = scratch() / "stderr.txt";
-  const std::string cmd = std::string(PHOTOMETRIA_BINARY) + " " + args + " 2>" + err_file.string();
-  CliRun r{0, {}, {}};
-  FILE* pipe = popen(cmd.c_str(), "r");
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) r.out.append(buf, n);
-  const int status = pclose(pipe);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  std::ifstream e(err_file);
-  std::stringstream s;
-  s << e.rdbuf();
-  r.err = s.str();
-  return r;
+  return cli_test::run_cli(args, (scratch() / "stderr.txt").string());
 }
 
 std::string slurp(const fs::path& p) {

@@ -24,54 +24,17 @@
 #include "formfactors/quadrature.h"
 #include "kernels/lambert.h"
 #include "patching/patching.h"
+#include "rectangle_reference.h"
 #include "scene_builders.h"
 
 using namespace photometria;
 
 namespace {
 
-using ld = long double;
-const ld kPi = 3.141592653589793238462643383279502884L;
-
-ld gp(ld x, ld y, ld z) {
-  ld t = 0;
-  const ld a = std::sqrt(y * y + z * z), b = std::sqrt(x * x + z * z);
-  if (a > 0) t += x * a * std::atan(x / a);
-  if (b > 0) t += y * b * std::atan(y / b);
-  const ld r = x * x + y * y + z * z;
-  if (z != 0 && r > 0) t -= z * z / 2 * std::log(r);
-  return t;
-}
-
-ld gq(ld x, ld y, ld e) {
-  const ld c = y * y + e * e, r = x * x + c;
-  ld t = 0;
-  if (c > 0) t += x * std::sqrt(c) * std::atan(x / std::sqrt(c));
-  if (r > 0) t -= 0.25L * (c - x * x) * std::log(r);
-  return t;
-}
-
-// A1 F12 for [x0,x1]×[y0,y1] and [s0,s1]×[e0,e1] in parallel planes a distance z apart.
-ld parallel_af(ld x0, ld x1, ld y0, ld y1, ld s0, ld s1, ld e0, ld e1, ld z) {
-  const ld x[2] = {x0, x1}, y[2] = {y0, y1}, s[2] = {s0, s1}, e[2] = {e0, e1};
-  ld sum = 0;
-  for (int i = 0; i < 2; ++i)
-    for (int j = 0; j < 2; ++j)
-      for (int k = 0; k < 2; ++k)
-        for (int l = 0; l < 2; ++l) sum += ((i + j + k + l) % 2 ? -1 : 1) * gp(x[i] - s[k], y[j] - e[l], z);
-  return sum / (2 * kPi);
-}
-
-// A1 F12, perpendicular: x, s along the common axis, y, e distances from the common line.
-ld perpendicular_af(ld x0, ld x1, ld y0, ld y1, ld s0, ld s1, ld e0, ld e1) {
-  const ld x[2] = {x0, x1}, y[2] = {y0, y1}, s[2] = {s0, s1}, e[2] = {e0, e1};
-  ld sum = 0;
-  for (int i = 0; i < 2; ++i)
-    for (int j = 0; j < 2; ++j)
-      for (int k = 0; k < 2; ++k)
-        for (int l = 0; l < 2; ++l) sum += ((i + j + k + l) % 2 ? -1 : 1) * gq(x[i] - s[k], y[j], e[l]);
-  return sum / (2 * kPi);
-}
+using rect_ref::kPi;
+using rect_ref::ld;
+using rect_ref::parallel_af;
+using rect_ref::perpendicular_af;
 
 // A world-aligned rectangle patch: normal sign × e_axis, plane coordinate, extents.
 struct Box {

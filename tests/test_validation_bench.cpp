@@ -1,5 +1,6 @@
 // The speed benchmark (validation/bench.h, `photometria bench`): its generated scenes are valid,
 // its runner returns sane rows, and the command writes its CSV. No timing is asserted.
+#include "cli_run.h"
 #include "validation/bench.h"
 
 #include <gtest/gtest.h>
@@ -43,10 +44,7 @@ void expect_closed(const pm::Scene& s, const std::vector<int>& faces, const std:
   }
 }
 
-struct CliRun {
-  int exit_code;
-  std::string out, err;
-};
+using cli_test::CliRun;
 
 fs::path scratch() {
   const fs::path dir = fs::temp_directory_path() / ("photometria_bench_" + std::to_string(::getpid()));
@@ -55,20 +53,7 @@ fs::path scratch() {
 }
 
 CliRun run(const std::string& args) {
-  const fs::path err_file = scratch() / "stderr.txt";
-  const std::string cmd = std::string(PHOTOMETRIA_BINARY) + " " + args + " 2>" + err_file.string();
-  CliRun r{0, {}, {}};
-  FILE* pipe = popen(cmd.c_str(), "r");
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) r.out.append(buf, n);
-  const int status = pclose(pipe);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  std::ifstream in(err_file);
-  std::stringstream s;
-  s << in.rdbuf();
-  r.err = s.str();
-  return r;
+  return cli_test::run_cli(args, (scratch() / "stderr.txt").string());
 }
 
 std::vector<std::string> lines(const std::string& text) {

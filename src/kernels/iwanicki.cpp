@@ -20,33 +20,10 @@ double atan_ratio_minus_one(double t) {
   return s;
 }
 
-// Direct evaluation of Σ_i (Ω_i / |a_i × a_{i+1}|) (a_i × a_{i+1})·N  (seed 004 final formula).
-double direct_sum(const Polygon& a, const Vec3& N) {
-  constexpr size_t kMax = 16;
-  const size_t n = a.size();
-  double len[kMax], dot[kMax], proj[kMax], omega[kMax];
-  double sum = 0.0;
-  for (size_t start = 0; start < n; start += kMax) {
-    const size_t m = std::min(kMax, n - start);
-    for (size_t k = 0; k < m; ++k) {
-      const size_t i = start + k;
-      const Vec3& ai = a[i];
-      const Vec3& aj = a[(i + 1) % n];
-      // a_i × a_{i+1} = a_i × e = a_{i+1} × e (e = a_{i+1} − a_i), built on the shorter of the
-      // two: accurate when p is near the edge's line and when it is near a vertex.
-      const Vec3 e = aj - ai;
-      const Vec3 cross = (ai.squaredNorm() <= aj.squaredNorm() ? ai : aj).cross(e);
-      len[k] = cross.norm();
-      dot[k] = ai.dot(aj);
-      proj[k] = N.dot(cross);
-    }
-    edge_angles(len, dot, omega, static_cast<int>(m));  // Ω_i, all edges in one vector atan2
-    for (size_t k = 0; k < m; ++k)
-      if (len[k] != 0.0) sum += (omega[k] / len[k]) * proj[k];  // 0: zero-length edge or along a view ray
-  }
-  return sum;
-}
-
+// Σ_i (Ω_i / |a_i × a_{i+1}|) (a_i × a_{i+1})·N (seed 004, final formula; the direct form is
+// edge_angle_sum() of visible_polygon.h), rearranged around c = a_0 with Σ e_i = 0 (see
+// iwanicki.h). Requires small angles (every |r_i| <= |c|/16), so that a_i·a_{i+1} > 0 and
+// t_i = tan Ω_i < 0.2.
 double centered_sum(const Vec3& c, const Polygon& r, const Vec3& N) {
   const double cc = c.squaredNorm();
   const size_t n = r.size();
@@ -95,7 +72,7 @@ double iwanicki_form_factor(const Receiver& receiver, const Vec3* v, int n) {
       centered = true;
     }
   }
-  if (!centered) sum = direct_sum(vis.a, N);
+  if (!centered) sum = edge_angle_sum(vis.a, N);  // the direct form: Ω_i/|a_i × a_{i+1}| times (a_i × a_{i+1})·N
   return std::clamp(-sum / (2.0 * M_PI), 0.0, 1.0);
 }
 

@@ -12,33 +12,6 @@ namespace {
 
 constexpr double kEps = std::numeric_limits<double>::epsilon();
 
-// Σ_i Θ_i N·(a_i × a_{i+1}) / |a_i × a_{i+1}|   (seed 000 eq. 1, seed 002 eq. 3)
-double lambert_sum(const Polygon& a, const Vec3& N) {
-  constexpr size_t kMax = 16;  // patches and clipped patches have at most 8 vertices
-  const size_t n = a.size();
-  double len[kMax], dot[kMax], proj[kMax], theta[kMax];
-  double sum = 0.0;
-  for (size_t start = 0; start < n; start += kMax) {
-    const size_t m = std::min(kMax, n - start);
-    for (size_t k = 0; k < m; ++k) {
-      const size_t i = start + k;
-      const Vec3& ai = a[i];
-      const Vec3& aj = a[(i + 1) % n];
-      // a_i × a_{i+1} = a_i × e = a_{i+1} × e (e = a_{i+1} − a_i), built on the shorter of the
-      // two: accurate when p is near the edge's line and when it is near a vertex.
-      const Vec3 e = aj - ai;
-      const Vec3 edge_normal = (ai.squaredNorm() <= aj.squaredNorm() ? ai : aj).cross(e);
-      len[k] = edge_normal.norm();
-      dot[k] = ai.dot(aj);
-      proj[k] = N.dot(edge_normal);
-    }
-    edge_angles(len, dot, theta, static_cast<int>(m));  // Θ_i = atan2(|a_i × a_{i+1}|, a_i · a_{i+1})
-    for (size_t k = 0; k < m; ++k)
-      if (len[k] != 0.0) sum += theta[k] * proj[k] / len[k];  // len 0: zero-length edge or p on its line
-  }
-  return sum;
-}
-
 // Per-thread scratch: patches have 3–4 vertices; clipping and boundary vertices can at most
 // double that. Larger query polygons fall back to the heap.
 thread_local VisiblePolygon scratch;
@@ -116,9 +89,36 @@ bool visible_polygon(const Receiver& receiver, const Vec3* v, int n, VisiblePoly
   return a.size() >= 3;
 }
 
+double edge_angle_sum(const Polygon& a, const Vec3& N) {
+  // seed 000 eq. (1), seed 002 eq. (3); see visible_polygon.h
+  constexpr size_t kMax = 16;  // patches and clipped patches have at most 8 vertices
+  const size_t n = a.size();
+  double len[kMax], dot[kMax], proj[kMax], theta[kMax];
+  double sum = 0.0;
+  for (size_t start = 0; start < n; start += kMax) {
+    const size_t m = std::min(kMax, n - start);
+    for (size_t k = 0; k < m; ++k) {
+      const size_t i = start + k;
+      const Vec3& ai = a[i];
+      const Vec3& aj = a[(i + 1) % n];
+      // a_i × a_{i+1} = a_i × e = a_{i+1} × e (e = a_{i+1} − a_i), built on the shorter of the
+      // two: accurate when p is near the edge's line and when it is near a vertex.
+      const Vec3 e = aj - ai;
+      const Vec3 edge_normal = (ai.squaredNorm() <= aj.squaredNorm() ? ai : aj).cross(e);
+      len[k] = edge_normal.norm();
+      dot[k] = ai.dot(aj);
+      proj[k] = N.dot(edge_normal);
+    }
+    edge_angles(len, dot, theta, static_cast<int>(m));  // Θ_i = atan2(|a_i × a_{i+1}|, a_i · a_{i+1})
+    for (size_t k = 0; k < m; ++k)
+      if (len[k] != 0.0) sum += theta[k] * proj[k] / len[k];  // len 0: zero-length edge or p on its line
+  }
+  return sum;
+}
+
 double lambert_form_factor(const Receiver& receiver, const Vec3* v, int n) {
   if (!visible_polygon(receiver, v, n, scratch)) return 0.0;
-  const double f = -lambert_sum(scratch.a, receiver.normal) / (2.0 * M_PI);
+  const double f = -edge_angle_sum(scratch.a, receiver.normal) / (2.0 * M_PI);
   return std::clamp(f, 0.0, 1.0);
 }
 

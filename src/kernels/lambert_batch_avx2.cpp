@@ -115,7 +115,7 @@ inline void atan2_upper(const B* y, const B* x, B* theta) {
 }
 
 // Σ_i Θ_i N·(a_i × a_{i+1}) / |a_i × a_{i+1}| over the n edges of polygon a (seed 000 eq. 1,
-// seed 002 eq. 3) — lambert.cpp's lambert_sum() term for term (same products, same order;
+// seed 002 eq. 3) — lambert.cpp's edge_angle_sum() term for term (same products, same order;
 // a zero-length edge or a receiver on its line adds nothing), the n edges interleaved as above.
 // Also Σ_i |term_i|, the scale of the rounding errors of the sum.
 template <int n>

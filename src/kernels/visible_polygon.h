@@ -31,4 +31,11 @@ struct VisiblePolygon {
 // the horizon. `polygon` has n vertices (see lambert.h for orientation).
 bool visible_polygon(const Receiver& receiver, const Vec3* polygon, int n, VisiblePolygon& out);
 
+// Σ_i Θ_i N·(a_i × a_{i+1}) / |a_i × a_{i+1}|,  Θ_i = atan2(|a_i × a_{i+1}|, a_i · a_{i+1}),
+// over the closed polygon `a` (vertices relative to the receiver): the edge sum of Lambert's
+// formula (seed 000 eq. 1, seed 002 eq. 3), equal to Iwanicki's Σ (Ω_i / sin Ω_i)(p_i × p_j)·N
+// for unnormalized vectors (seed 004, final formula); F = −sum / 2π. Edge normals are formed on
+// the shorter of a_i, a_{i+1}; a zero-length edge or an edge along a view ray adds nothing.
+double edge_angle_sum(const Polygon& a, const Vec3& N);
+
 }  // namespace photometria
