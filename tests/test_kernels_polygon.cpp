@@ -9,6 +9,7 @@
 #include <random>
 
 #include "kernels/kernels.h"
+#include "kernels/lambert_batch.h"
 #include "kernels/visible_polygon.h"
 #include "refs.h"
 
@@ -356,4 +357,55 @@ TEST(Approximations, TampieriAndCrossProductErrorsAreWhereSeed003SaysTheyAre) {
     prev_rel = std::abs(rel);
   }
   EXPECT_LT(prev_rel, 3e-3);
+}
+
+// The one-pass path of lambert and iwanicki (whole_polygon_edge_sum, taken whenever nothing needs
+// clipping) computes the same edge sum as the general path (visible_polygon + edge_angle_sum),
+// bit for bit, with the SIMD edge sum and without; and it declines exactly the cases it must
+// leave to the general path (clipping, receiver in the polygon's plane).
+TEST(PolygonKernels, OnePassPathEqualsTheGeneralPathBitForBit) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  int taken = 0, declined = 0, behind = 0;
+  for (bool simd : {true, false}) {
+    lambert_batch_detail::set_simd_enabled(simd);
+    for (int trial = 0; trial < 4000; ++trial) {
+      // A convex polygon (3 … 8 corners on an ellipse) above a receiver with a random normal.
+      const int n = 3 + trial % 6;
+      const Vec3 centre(u(rng), u(rng), 1.0 + 2.0 * (u(rng) + 1.0));
+      const double rx = 0.2 + 0.5 * (u(rng) + 1.0), ry = 0.2 + 0.5 * (u(rng) + 1.0);
+      const bool facing_up = trial % 5 == 0;  // seen from behind: the one-pass path says 0
+      Polygon poly;
+      for (int k = 0; k < n; ++k) {
+        const double t = 2.0 * M_PI * (facing_up ? k : -k) / n;
+        poly.emplace_back(centre + Vec3(rx * std::cos(t), ry * std::sin(t), 0.0));
+      }
+      // Every third receiver tilted far enough that the polygon may cross its horizon (clipping);
+      // every seventh in the polygon's plane (boundary limits or nothing).
+      const double tilt = trial % 3 == 1 ? 3.0 : 0.3;
+      Receiver r{Vec3(u(rng), u(rng), u(rng) * 0.5), Vec3(tilt * u(rng), tilt * u(rng), 1.0).normalized()};
+      if (trial % 7 == 3) r.point.z() = centre.z();
+      double fast = -1.0;
+      const bool one_pass = whole_polygon_edge_sum(r, poly.data(), n, fast);
+      VisiblePolygon vis;
+      const bool visible = visible_polygon(r, poly.data(), n, vis);
+      if (!one_pass) {
+        ++declined;
+        EXPECT_FALSE(visible && vis.whole) << "trial " << trial;  // declined only what needs the general path
+        continue;
+      }
+      ++taken;
+      if (!visible) {
+        ++behind;
+        EXPECT_EQ(fast, 0.0) << "trial " << trial;
+        continue;
+      }
+      ASSERT_TRUE(vis.whole) << "trial " << trial;
+      EXPECT_EQ(fast, edge_angle_sum(vis.a, r.normal)) << "trial " << trial << ", simd " << simd;
+    }
+  }
+  lambert_batch_detail::set_simd_enabled(true);
+  EXPECT_GT(taken, 4000);
+  EXPECT_GT(declined, 400);
+  EXPECT_GT(behind, 800);
 }

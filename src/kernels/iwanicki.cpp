@@ -10,6 +10,9 @@ namespace photometria {
 namespace {
 
 thread_local VisiblePolygon scratch;
+
+// The centred sum applies when every vertex is within |c|/16 of c = v_0 − p: 16² = 256.
+constexpr double kCentredFactor = 256.0;
 thread_local Polygon relative;
 
 // atan(t)/t − 1 = −t²/3 + t⁴/5 − t⁶/7 + …  for 0 <= t < 0.2 (12 terms: error < 1e-17 relative).
@@ -53,10 +56,13 @@ double centered_sum(const Vec3& c, const Polygon& r, const Vec3& N) {
 }  // namespace
 
 double iwanicki_form_factor(const Receiver& receiver, const Vec3* v, int n) {
+  // Near polygons (the centred form below does not apply) that need no clipping: the direct
+  // form in one pass on the stack, as the general path below would compute it.
+  double sum;
+  if (whole_polygon_edge_sum(receiver, v, n, sum, kCentredFactor)) return std::clamp(-sum / (2.0 * M_PI), 0.0, 1.0);
   VisiblePolygon& vis = scratch;
   if (!visible_polygon(receiver, v, n, vis)) return 0.0;
   const Vec3& N = receiver.normal;
-  double sum;
   bool centered = false;
   if (vis.whole) {
     // Differences from the input coordinates: exact shape even when p is far from the polygon.
@@ -67,7 +73,7 @@ double iwanicki_form_factor(const Receiver& receiver, const Vec3* v, int n) {
       relative[i] = v[i] - v[0];
       rmax2 = std::max(rmax2, relative[i].squaredNorm());
     }
-    if (256.0 * rmax2 <= c.squaredNorm()) {
+    if (kCentredFactor * rmax2 <= c.squaredNorm()) {
       sum = centered_sum(c, relative, N);
       centered = true;
     }

@@ -89,34 +89,86 @@ bool visible_polygon(const Receiver& receiver, const Vec3* v, int n, VisiblePoly
   return a.size() >= 3;
 }
 
+namespace {
+
+// Σ_i Θ_i N·(a_i × a_{i+1}) / |a_i × a_{i+1}| over the m edges starting at `first` of the closed
+// polygon a[0..n) (see edge_angle_sum); m <= 16.
+double edge_angle_block(const Vec3* a, size_t n, size_t first, size_t m, const Vec3& N) {
+  double len2[16], dot[16], proj[16];
+  for (size_t k = 0; k < m; ++k) {
+    const size_t i = first + k;
+    const Vec3& ai = a[i];
+    const Vec3& aj = a[i + 1 == n ? 0 : i + 1];
+    // a_i × a_{i+1} = a_i × e = a_{i+1} × e (e = a_{i+1} − a_i), built on the shorter of the
+    // two: accurate when p is near the edge's line and when it is near a vertex.
+    const Vec3 e = aj - ai;
+    const Vec3 edge_normal = (ai.squaredNorm() <= aj.squaredNorm() ? ai : aj).cross(e);
+    len2[k] = edge_normal.squaredNorm();
+    dot[k] = ai.dot(aj);
+    proj[k] = N.dot(edge_normal);
+  }
+  // Θ_i = atan2(|a_i × a_{i+1}|, a_i · a_{i+1}); len 0 (zero-length edge or p on its line) adds nothing
+  return edge_term_sum(len2, dot, proj, static_cast<int>(m));
+}
+
+}  // namespace
+
+bool whole_polygon_edge_sum(const Receiver& receiver, const Vec3* v, int n, double& sum, double far_factor) {
+  if (n < 3 || n > kWholeMaxVertices) return false;
+  const Vec3& p = receiver.point;
+  const Vec3& N = receiver.normal;
+  Vec3 a[kWholeMaxVertices];
+  // a as structure of arrays too, for small_polygon_edge_sum(), written early (a vector load
+  // right after the scalar stores would stall on store forwarding).
+  alignas(32) double x[4], y[4], z[4];
+  double magnitude = p.lpNorm<Eigen::Infinity>();
+  Vec3 mean = Vec3::Zero();
+  for (int i = 0; i < n; ++i) {
+    a[i] = v[i] - p;  // relative to the receiver, as visible_polygon()
+    if (i < 4) x[i] = a[i].x(), y[i] = a[i].y(), z[i] = a[i].z();
+    if (N.dot(a[i]) < 0.0) return false;  // below the horizon: clipping needed
+    magnitude = std::max(magnitude, v[i].lpNorm<Eigen::Infinity>());
+    mean += a[i];
+  }
+  Vec3 newell = Vec3::Zero();  // newell_vector(a, n) (geometry/polygon.cpp), inlined here
+  for (int i = 1; i + 1 < n; ++i) newell += (a[i] - a[0]).cross(a[i + 1] - a[0]);
+  if (newell.squaredNorm() == 0.0 || magnitude == 0.0) return false;  // degenerate: the general path says 0
+  if (far_factor > 0.0) {
+    double rmax2 = 0.0;
+    for (int i = 1; i < n; ++i) rmax2 = std::max(rmax2, (v[i] - v[0]).squaredNorm());
+    if (far_factor * rmax2 <= a[0].squaredNorm()) return false;  // far: the caller's own form
+  }
+  // visible_polygon()'s tests on height = −front·mean/n against tol, front = newell/|newell|,
+  // squared to spare a square root and a division: h = −newell·mean is height·n·|newell|.
+  const double h = -newell.dot(mean);
+  const double tol = 16.0 * kEps * magnitude;
+  const double bound2 = (tol * n) * (tol * n) * newell.squaredNorm();
+  if (h < 0.0 && h * h > bound2) {
+    sum = 0.0;  // seen from the back: one-sided
+    return true;
+  }
+  if (h <= 0.0 || h * h <= bound2) return false;  // in the polygon's plane: boundary limits
+  if (n <= 4) {
+    if (n == 3) x[3] = x[0], y[3] = y[0], z[3] = z[0];  // unused lane, kept finite
+    if (small_polygon_edge_sum(x, y, z, n, N.data(), sum)) return true;
+  }
+  sum = edge_angle_block(a, static_cast<size_t>(n), 0, static_cast<size_t>(n), N);
+  return true;
+}
+
 double edge_angle_sum(const Polygon& a, const Vec3& N) {
   // seed 000 eq. (1), seed 002 eq. (3); see visible_polygon.h
-  constexpr size_t kMax = 16;  // patches and clipped patches have at most 8 vertices
+  constexpr size_t kBlock = 16;  // patches and clipped patches have at most 8 vertices
   const size_t n = a.size();
-  double len[kMax], dot[kMax], proj[kMax], theta[kMax];
   double sum = 0.0;
-  for (size_t start = 0; start < n; start += kMax) {
-    const size_t m = std::min(kMax, n - start);
-    for (size_t k = 0; k < m; ++k) {
-      const size_t i = start + k;
-      const Vec3& ai = a[i];
-      const Vec3& aj = a[(i + 1) % n];
-      // a_i × a_{i+1} = a_i × e = a_{i+1} × e (e = a_{i+1} − a_i), built on the shorter of the
-      // two: accurate when p is near the edge's line and when it is near a vertex.
-      const Vec3 e = aj - ai;
-      const Vec3 edge_normal = (ai.squaredNorm() <= aj.squaredNorm() ? ai : aj).cross(e);
-      len[k] = edge_normal.norm();
-      dot[k] = ai.dot(aj);
-      proj[k] = N.dot(edge_normal);
-    }
-    edge_angles(len, dot, theta, static_cast<int>(m));  // Θ_i = atan2(|a_i × a_{i+1}|, a_i · a_{i+1})
-    for (size_t k = 0; k < m; ++k)
-      if (len[k] != 0.0) sum += theta[k] * proj[k] / len[k];  // len 0: zero-length edge or p on its line
-  }
+  for (size_t start = 0; start < n; start += kBlock)
+    sum += edge_angle_block(a.data(), n, start, std::min(kBlock, n - start), N);
   return sum;
 }
 
 double lambert_form_factor(const Receiver& receiver, const Vec3* v, int n) {
+  double sum;
+  if (whole_polygon_edge_sum(receiver, v, n, sum)) return std::clamp(-sum / (2.0 * M_PI), 0.0, 1.0);
   if (!visible_polygon(receiver, v, n, scratch)) return 0.0;
   const double f = -edge_angle_sum(scratch.a, receiver.normal) / (2.0 * M_PI);
   return std::clamp(f, 0.0, 1.0);

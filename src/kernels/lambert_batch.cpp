@@ -141,9 +141,30 @@ int lambert_form_factors(const Receiver& receiver, const PolygonBatch& sources, 
   return scalar_calls;
 }
 
-void edge_angles(const double* y, const double* x, double* out, int n) {
-  if (lambert_batch_detail::simd_atan2(y, x, out, n)) return;
-  for (int k = 0; k < n; ++k) out[k] = std::atan2(y[k], x[k]);
+double edge_term_sum(const double* len2, const double* dot, const double* proj, int n) {
+  double sum = 0.0;
+  if (use_avx2()) {
+    constexpr int kBlock = 16;
+    double term[kBlock];
+    for (int start = 0; start < n; start += kBlock) {
+      const int m = std::min(kBlock, n - start);
+      lambert_batch_detail::edge_terms_avx2(len2 + start, dot + start, proj + start, term, m);
+      for (int k = 0; k < m; ++k) sum += term[k];
+    }
+    return sum;
+  }
+  for (int k = 0; k < n; ++k) {
+    if (len2[k] == 0.0) continue;
+    const double len = std::sqrt(len2[k]);
+    sum += std::atan2(len, dot[k]) * proj[k] / len;
+  }
+  return sum;
+}
+
+bool small_polygon_edge_sum(const double* x, const double* y, const double* z, int n, const double* N, double& sum) {
+  if ((n != 3 && n != 4) || !use_avx2()) return false;
+  sum = lambert_batch_detail::small_polygon_edge_sum_avx2(x, y, z, n, N);
+  return true;
 }
 
 const char* lambert_batch_isa() { return use_avx2() ? "avx2" : "scalar"; }

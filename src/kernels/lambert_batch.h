@@ -111,11 +111,21 @@ inline int lambert_form_factors(const Receiver& receiver, const PolygonBatch& so
   return lambert_form_factors(receiver, sources, 0, sources.size, out);
 }
 
-// out[k] = atan2(y[k], x[k]) for k < n, every y[k] >= 0 (the edge angles Θ_k of the scalar
-// kernels: y = |a_k × a_{k+1}|, x = a_k · a_{k+1}): four at a time with the batched kernel's
-// atan2 (AVX2, within 0.65 ulp) where the CPU has it, else std::atan2. Lets a single polygon's
-// edges share one vector atan2 instead of n scalar calls.
-void edge_angles(const double* y, const double* x, double* out, int n);
+// The edge sum of the scalar kernels (seed 000 eq. 1, seed 002 eq. 3):
+//   Σ_{k<n} Θ_k proj[k] / len_k,  len_k = √len2[k],  Θ_k = atan2(len_k, dot[k]),
+// with len2[k] = |a_k × a_{k+1}|², dot[k] = a_k · a_{k+1}, proj[k] = N · (a_k × a_{k+1}); a term
+// with len2[k] = 0 (zero-length edge, or p on the edge's line) adds nothing. The square roots,
+// angles and quotients are taken four at a time with the batched kernel's atan2 (AVX2, within
+// 0.65 ulp) where the CPU has it, else with std::atan2; the terms are added in order k = 0, 1, …
+// either way, so the sum is the batched kernel's bit for bit.
+double edge_term_sum(const double* len2, const double* dot, const double* proj, int n);
+
+// edge_term_sum() of a closed polygon of n = 3 or 4 vertices a_k = (x[k], y[k], z[k]) relative
+// to the receiver (arrays of 4; x[3] etc. unused when n = 3), receiver normal N: the edge
+// normals on the shorter vertex vector, their lengths, the dot products and the terms all in
+// AVX2 lanes, one edge a lane, the same operations as edge_angle_sum() (visible_polygon.h) so
+// the same value bit for bit. False (and `sum` untouched) when the CPU has no AVX2.
+bool small_polygon_edge_sum(const double* x, const double* y, const double* z, int n, const double* N, double& sum);
 
 // The SIMD instruction set lambert_form_factors() uses on this CPU: "avx2" or "scalar".
 const char* lambert_batch_isa();
@@ -154,6 +164,9 @@ struct View {
 // how many there are.
 int lambert_avx2(const View& view, int begin, int end, double* out, int* scalar_lanes);
 bool simd_atan2_avx2(const double* y, const double* x, double* out, int n);
+// Θ_k proj[k] / √len2[k] (0 where len2[k] = 0) into out[k], k < n.
+void edge_terms_avx2(const double* len2, const double* dot, const double* proj, double* out, int n);
 bool xsimd_atan2_avx2(const double* y, const double* x, double* out, int n);
+double small_polygon_edge_sum_avx2(const double* x, const double* y, const double* z, int n, const double* N);
 bool avx2_compiled();  // false when the AVX2 file was built without -mavx2 (not x86-64)
 }  // namespace photometria::lambert_batch_detail

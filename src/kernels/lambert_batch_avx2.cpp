@@ -248,6 +248,46 @@ bool simd_atan2_avx2(const double* y, const double* x, double* out, int n) {
   return true;
 }
 
+void edge_terms_avx2(const double* len2, const double* dot, const double* proj, double* out, int n) {
+  for (int i = 0; i < n; i += kWidth) {
+    alignas(32) double ll[kWidth] = {0, 0, 0, 0}, dd[kWidth] = {1, 1, 1, 1}, pp[kWidth] = {0, 0, 0, 0}, r[kWidth];
+    for (int l = 0; l < kWidth && i + l < n; ++l) ll[l] = len2[i + l], dd[l] = dot[i + l], pp[l] = proj[i + l];
+    const B l2 = B::load_aligned(ll), len = xsimd::sqrt(l2), x = B::load_aligned(dd);
+    B theta;
+    atan2_upper<1>(&len, &x, &theta);
+    // Θ·proj/len as the scalar kernel rounds it: (Θ·proj)/len; 0 where len = 0.
+    const M zero = l2 == B(0.0);
+    const B term = and_not(zero, (theta * B::load_aligned(pp)) / xsimd::select(zero, B(1.0), len));
+    term.store_aligned(r);
+    for (int l = 0; l < kWidth && i + l < n; ++l) out[i + l] = r[l];
+  }
+}
+
+double small_polygon_edge_sum_avx2(const double* x, const double* y, const double* z, int n, const double* N) {
+  // Lane k holds edge k: a = a_k, b = a_{k+1} (lanes rotated by one; for a triangle lane 3 is unused).
+  const V3 a{B::load_unaligned(x), B::load_unaligned(y), B::load_unaligned(z)};
+  const auto next = [n](const B& v) {
+    return B(n == 4 ? _mm256_permute4x64_pd(v, 0x39) : _mm256_permute4x64_pd(v, 0x09));  // (1,2,3,0) / (1,2,0,0)
+  };
+  const V3 b{next(a.x), next(a.y), next(a.z)};
+  const V3 e = b - a;
+  const M a_shorter = dot(a, a) <= dot(b, b);
+  const V3 s{xsimd::select(a_shorter, a.x, b.x), xsimd::select(a_shorter, a.y, b.y), xsimd::select(a_shorter, a.z, b.z)};
+  const V3 c = cross(s, e);  // a_k × a_{k+1}, on the shorter of the two (lambert.cpp)
+  const B len2 = dot(c, c), len = xsimd::sqrt(len2), ab = dot(a, b);
+  const V3 normal{B(N[0]), B(N[1]), B(N[2])};
+  const B proj = dot(normal, c);
+  B theta;
+  atan2_upper<1>(&len, &ab, &theta);
+  const M zero = len2 == B(0.0);
+  const B term = and_not(zero, (theta * proj) / xsimd::select(zero, B(1.0), len));
+  alignas(32) double t[kWidth];
+  term.store_aligned(t);
+  double sum = 0.0;
+  for (int k = 0; k < n; ++k) sum += t[k];  // in order, as the scalar kernel
+  return sum;
+}
+
 bool xsimd_atan2_avx2(const double* y, const double* x, double* out, int n) {
   for (int i = 0; i < n; i += kWidth) {
     alignas(32) double yy[kWidth] = {0, 0, 0, 0}, xx[kWidth] = {1, 1, 1, 1}, r[kWidth];
@@ -266,6 +306,8 @@ namespace photometria::lambert_batch_detail {
 bool avx2_compiled() { return false; }
 int lambert_avx2(const View&, int, int, double*, int*) { return 0; }
 bool simd_atan2_avx2(const double*, const double*, double*, int) { return false; }
+void edge_terms_avx2(const double*, const double*, const double*, double*, int) {}
+double small_polygon_edge_sum_avx2(const double*, const double*, const double*, int, const double*) { return 0.0; }
 bool xsimd_atan2_avx2(const double*, const double*, double*, int) { return false; }
 }  // namespace photometria::lambert_batch_detail
 

@@ -31,6 +31,17 @@ struct VisiblePolygon {
 // the horizon. `polygon` has n vertices (see lambert.h for orientation).
 bool visible_polygon(const Receiver& receiver, const Vec3* polygon, int n, VisiblePolygon& out);
 
+// The common case in one pass on the stack, for kernels that call it before visible_polygon():
+// a polygon of at most kWholeMaxVertices vertices, wholly above the receiver's horizon (nothing to
+// clip), with the receiver clearly in front of its plane or clearly behind it. Then returns true
+// with `sum` = edge_angle_sum() of the relative polygon (0 when seen from behind), the same value
+// the general path computes (same decisions, same operations); otherwise returns false and the
+// caller takes the general path (boundary limits, clipping, degenerate polygons, long polygons).
+// With far_factor > 0 it also returns false for a far polygon, far_factor·max|v_i − v_0|² <=
+// |v_0 − p|², which the caller evaluates in a form of its own (iwanicki's centred sum).
+constexpr int kWholeMaxVertices = 8;
+bool whole_polygon_edge_sum(const Receiver& receiver, const Vec3* polygon, int n, double& sum, double far_factor = 0.0);
+
 // Σ_i Θ_i N·(a_i × a_{i+1}) / |a_i × a_{i+1}|,  Θ_i = atan2(|a_i × a_{i+1}|, a_i · a_{i+1}),
 // over the closed polygon `a` (vertices relative to the receiver): the edge sum of Lambert's
 // formula (seed 000 eq. 1, seed 002 eq. 3), equal to Iwanicki's Σ (Ω_i / sin Ω_i)(p_i × p_j)·N
