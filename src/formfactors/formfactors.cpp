@@ -64,6 +64,9 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
   const bool mirror = rects && !vis && F.layout() == MatrixLayout::Dense;
   double max_point_sum = 0.0;
 
+  std::vector<GroupedShaftCuller> grouped_cullers;
+  if (vis) grouped_cullers.assign(size_t(omp_get_max_threads()), GroupedShaftCuller(vis->culler()));
+
 #pragma omp parallel for schedule(dynamic, 4) \
     reduction(+ : evaluated, backfacing, tested, culled, occluded, rays, above, rescaled, fixed_rule, gauss, adaptive, kernels, exact_rectangles) \
     reduction(max : max_point_sum)
@@ -79,6 +82,16 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
     if (rays_mode) ray_part.assign(size_t(nq) * n, 0.0);
     std::vector<double> unoccluded(nq);
     std::vector<int> occluders;
+    // Shaft culling by source face first (visibility.h); one per thread, reused across rows.
+    GroupedShaftCuller* grouped = vis ? &grouped_cullers[size_t(omp_get_thread_num())] : nullptr;
+    // With a one-point rule and no per-pair rule, visibility is taken from that point alone: cull
+    // the point's shafts, narrower and cheaper than the patch's, and tell point_to_patch() they
+    // are already the narrow ones.
+    const bool point_shafts = !per_pair && nq == 1;
+    if (grouped) {
+      if (point_shafts) grouped->set_receiver(&rule[0].point, 1);
+      else grouped->set_receiver(ri, pi.corner_count);
+    }
     std::vector<double> row(n, 0.0);  // F_i,· before it is stored
     // Lambert's kernel from each receiver point to every patch (nq × n), batched, on first need.
     std::vector<double> kernel;
@@ -121,7 +134,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
         if (vis) {
           source();
           ++tested;
-          vis->culler().occluders(ri, pi.corner_count, sj, pj.corner_count, occluders);
+          grouped->occluders(pj.face, sj, pj.corner_count, occluders);
           shaft_known = true;
         }
         if (!vis || occluders.empty()) {
@@ -164,7 +177,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
       if (vis && f0 > 0.0) {
         if (!shaft_known) {
           ++tested;
-          vis->culler().occluders(ri, pi.corner_count, sj, pj.corner_count, occluders);
+          grouped->occluders(pj.face, sj, pj.corner_count, occluders);
         }
         if (occluders.empty()) {
           ++culled;
@@ -174,7 +187,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
           for (int q = 0; q < nq; ++q) {
             const double v = vis->point_to_patch(Receiver{rule[q].point, pi.normal}, sj, pj.corner_count, pj.normal,
                                                  unoccluded[q], occluders, options.rays,
-                                                 pair_stream(stream, uint64_t(q), 0), rays);
+                                                 pair_stream(stream, uint64_t(q), 0), rays, point_shafts);
             if (rays_mode) ray_part[size_t(q) * n + j] = v;
             unoccluded[q] = v;  // now the visible factor
             f += rule[q].weight * v;

@@ -93,12 +93,16 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
   long long evaluated = 0, rays = 0, tested = 0, culled = 0;
   // Every patch as one SIMD batch: a point's kernel to all patches in one call (lambert_batch.h).
   const PolygonBatch sources = patch_batch(mesh);
+  // Shaft culling by source face first (visibility.h): one culler per thread.
+  std::vector<GroupedShaftCuller> grouped_cullers;
+  if (vis) grouped_cullers.assign(size_t(omp_get_max_threads()), GroupedShaftCuller(vis->culler()));
 #pragma omp parallel for schedule(dynamic, 16) reduction(+ : evaluated, rays, tested, culled)
   for (int o = 0; o < np; ++o) {
     const OutputPoint& x = r.points[o];
     Eigen::RowVector3d h = Eigen::RowVector3d::Zero();
     Vec3 src[4];
     std::vector<int> occluders;
+    bool receiver_set = false;  // the grouped culler's receiver is this point (set on first need)
     const Receiver receiver{x.position, x.normal, x.approach};
     thread_local std::vector<double> kernel;
     kernel.resize(mesh.size());
@@ -114,10 +118,13 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
       if (f > 0.0 && vis) {
         mesh.polygon(j, src);
         ++tested;
-        vis->culler().occluders(&x.position, 1, src, pj.corner_count, occluders);
+        GroupedShaftCuller& grouped = grouped_cullers[size_t(omp_get_thread_num())];
+        if (!receiver_set) grouped.set_receiver(&x.position, 1), receiver_set = true;
+        grouped.occluders(pj.face, src, pj.corner_count, occluders);
         if (occluders.empty()) ++culled;
         else f = vis->point_to_patch(receiver, src, pj.corner_count, pj.normal, f, occluders, opt.rays,
-                                     pair_stream(opt.seed ^ 0x5eedULL, uint64_t(o), uint64_t(j)), rays);
+                                     pair_stream(opt.seed ^ 0x5eedULL, uint64_t(o), uint64_t(j)), rays,
+                                     /*narrow=*/true);  // culled from the point itself
       }
       h += f * r.radiosity.row(j);
     }

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <numeric>
 #include <sstream>
+#include <stdexcept>
 #include <vector>
 
 #include "util/error.h"
@@ -219,42 +220,92 @@ struct Plane {
   double d;  // the plane is m·y = d; the shaft lies in m·y <= d
 };
 
-// The planes of the convex hull of A ∪ B (each a polygon or a point). A hull face of two convex
-// polygons contains either a whole polygon, or an edge of one and a vertex of the other, so
-// these candidates are complete; a candidate is kept when every point lies on one closed side.
-void hull_planes(const Vec3* a, int na, const Vec3* b, int nb, double tol, std::vector<Plane>& out) {
-  out.clear();
-  Vec3 pts[8];
-  int np = 0;
-  for (int k = 0; k < na; ++k) pts[np++] = a[k];
-  for (int k = 0; k < nb; ++k) pts[np++] = b[k];
-  auto try_plane = [&](Vec3 m, const Vec3& p0) {
-    const double len = m.norm();
-    if (!(len > 0.0)) return;
-    m /= len;
-    const double d = m.dot(p0);
+// The shaft of A and B (each a polygon or a point; A ∪ B at most kMaxShaftPoints points): its
+// bounding box, and the planes of the convex hull of A ∪ B, built on first need (most queries are
+// settled by bounding boxes alone). A hull face of two convex polygons contains either a whole
+// polygon, or an edge of one and a vertex of the other, so these candidates are complete; a
+// candidate is kept when every point lies on one closed side. For a non-convex B (a scene face
+// used as a group of patches) the kept planes still each bound A ∪ B, so their intersection
+// contains the hull: culling stays conservative.
+constexpr int kMaxShaftPoints = 24;
+
+class Shaft {
+ public:
+  Shaft(const Vec3* a, int na, const Vec3* b, int nb, double tol) : a_(a), b_(b), na_(na), nb_(nb), tol_(tol) {
+    for (int k = 0; k < na; ++k) box_.extend(a[k]);
+    for (int k = 0; k < nb; ++k) box_.extend(b[k]);
+    box_.min().array() -= tol;
+    box_.max().array() += tol;
+  }
+  const Eigen::AlignedBox3d& box() const { return box_; }
+
+  // True when face w (unit plane normal `normal`) cannot meet the open shaft: every corner of A
+  // and B on one closed side of its plane (no open segment crosses it; this leaves out the faces
+  // A and B lie in and faces they only touch), or w wholly on the outer side of one hull plane.
+  bool misses(const Polygon& w, const Vec3& normal) {
     bool below = true, above = true;
-    for (int k = 0; k < np; ++k) {
-      const double s = m.dot(pts[k]) - d;
-      below = below && s <= tol;
-      above = above && s >= -tol;
+    for (int k = 0; k < na_ + nb_; ++k) {
+      const double s = normal.dot((k < na_ ? a_[k] : b_[k - na_]) - w[0]);
+      below = below && s <= tol_;
+      above = above && s >= -tol_;
     }
-    if (below) out.push_back({m, d});
-    else if (above) out.push_back({-m, -d});
-  };
-  auto edges_with_vertices = [&](const Vec3* p, int n, const Vec3* q, int nq) {
-    if (n < 2) return;
-    for (int e = 0; e < n; ++e) {
-      const Vec3& e0 = p[e];
-      const Vec3& e1 = p[(e + 1) % n];
-      for (int v = 0; v < nq; ++v) try_plane((e1 - e0).cross(q[v] - e0), e0);
+    if (below || above) return true;
+    if (!have_planes_) build_planes();
+    for (int i = 0; i < plane_count_; ++i) {
+      const Plane& p = planes_[i];
+      bool outside = true;
+      for (const Vec3& v : w) outside = outside && p.m.dot(v) - p.d >= -tol_;
+      if (outside) return true;
     }
-  };
-  edges_with_vertices(a, na, b, nb);
-  edges_with_vertices(b, nb, a, na);
-  if (na >= 3) try_plane(newell_vector(a, na), a[0]);
-  if (nb >= 3) try_plane(newell_vector(b, nb), b[0]);
-}
+    return false;
+  }
+
+ private:
+  void build_planes() {
+    have_planes_ = true;
+    Vec3 pts[kMaxShaftPoints];
+    int np = 0;
+    for (int k = 0; k < na_; ++k) pts[np++] = a_[k];
+    for (int k = 0; k < nb_; ++k) pts[np++] = b_[k];
+    auto try_plane = [&](Vec3 m, const Vec3& p0) {
+      const double len = m.norm();
+      if (!(len > 0.0) || plane_count_ == kMaxPlanes) return;
+      m /= len;
+      const double d = m.dot(p0);
+      bool below = true, above = true;
+      for (int k = 0; k < np; ++k) {
+        const double s = m.dot(pts[k]) - d;
+        below = below && s <= tol_;
+        above = above && s >= -tol_;
+      }
+      if (below) planes_[plane_count_++] = {m, d};
+      else if (above) planes_[plane_count_++] = {-m, -d};
+    };
+    auto edges_with_vertices = [&](const Vec3* p, int n, const Vec3* q, int nq) {
+      if (n < 2) return;
+      for (int e = 0; e < n; ++e) {
+        const Vec3& e0 = p[e];
+        const Vec3& e1 = p[(e + 1) % n];
+        for (int v = 0; v < nq; ++v) try_plane((e1 - e0).cross(q[v] - e0), e0);
+      }
+    };
+    edges_with_vertices(a_, na_, b_, nb_);
+    edges_with_vertices(b_, nb_, a_, na_);
+    if (na_ >= 3) try_plane(newell_vector(a_, na_), a_[0]);
+    if (nb_ >= 3) try_plane(newell_vector(b_, nb_), b_[0]);
+  }
+
+  // Enough for every candidate of a quad against a 20-corner group (2·4·20 + 2); dropping a
+  // plane beyond it would only cull less.
+  static constexpr int kMaxPlanes = 2 * 4 * (kMaxShaftPoints - 4) + 2;
+  const Vec3 *a_, *b_;
+  int na_, nb_;
+  double tol_;
+  Eigen::AlignedBox3d box_;
+  bool have_planes_ = false;
+  int plane_count_ = 0;
+  Plane planes_[kMaxPlanes];
+};
 
 }  // namespace
 
@@ -307,43 +358,18 @@ int ShaftCuller::build(int first, int count) {
 void ShaftCuller::occluders(const Vec3* a, int na, const Vec3* b, int nb, std::vector<int>& out) const {
   out.clear();
   if (nodes_.empty()) return;
-  Eigen::AlignedBox3d shaft_box;
-  for (int k = 0; k < na; ++k) shaft_box.extend(a[k]);
-  for (int k = 0; k < nb; ++k) shaft_box.extend(b[k]);
-  shaft_box.min().array() -= tol_;
-  shaft_box.max().array() += tol_;
-  thread_local std::vector<Plane> planes;
-  hull_planes(a, na, b, nb, tol_, planes);
-
-  auto face_misses_shaft = [&](int f) {
-    const Polygon& w = faces_[f];
-    // Every corner of A and B on one closed side of the face's plane: no open segment crosses it.
-    bool below = true, above = true;
-    for (int k = 0; k < na + nb; ++k) {
-      const double s = normals_[f].dot((k < na ? a[k] : b[k - na]) - w[0]);
-      below = below && s <= tol_;
-      above = above && s >= -tol_;
-    }
-    if (below || above) return true;
-    // The face wholly on the outer closed side of one hull plane.
-    for (const Plane& p : planes) {
-      bool outside = true;
-      for (const Vec3& v : w) outside = outside && p.m.dot(v) - p.d >= -tol_;
-      if (outside) return true;
-    }
-    return false;
-  };
-
+  if (na + nb > kMaxShaftPoints) throw std::invalid_argument("ShaftCuller: a shaft of more than 24 points");
+  Shaft shaft(a, na, b, nb, tol_);
   int stack[128];
   int top = 0;
   stack[top++] = 0;
   while (top > 0) {
     const Node& node = nodes_[stack[--top]];
-    if (!node.box.intersects(shaft_box)) continue;
+    if (!node.box.intersects(shaft.box())) continue;
     if (node.left < 0) {
       for (int k = node.first; k < node.first + node.count; ++k) {
         const int f = order_[k];
-        if (boxes_[f].intersects(shaft_box) && !face_misses_shaft(f)) out.push_back(f);
+        if (boxes_[f].intersects(shaft.box()) && !shaft.misses(faces_[f], normals_[f])) out.push_back(f);
       }
     } else {
       stack[top++] = node.left;
@@ -351,6 +377,39 @@ void ShaftCuller::occluders(const Vec3* a, int na, const Vec3* b, int nb, std::v
     }
   }
   std::sort(out.begin(), out.end());  // a fixed order: results do not depend on the traversal
+}
+
+void ShaftCuller::occluders_among(const Vec3* a, int na, const Vec3* b, int nb, const std::vector<int>& candidates,
+                                  std::vector<int>& out) const {
+  out.clear();
+  if (candidates.empty()) return;
+  if (na + nb > kMaxShaftPoints) throw std::invalid_argument("ShaftCuller: a shaft of more than 24 points");
+  Shaft shaft(a, na, b, nb, tol_);
+  for (int f : candidates)
+    if (boxes_[f].intersects(shaft.box()) && !shaft.misses(faces_[f], normals_[f])) out.push_back(f);
+}
+
+GroupedShaftCuller::GroupedShaftCuller(const ShaftCuller& culler)
+    : culler_(&culler), stamp_(culler.face_count(), -1), groups_(culler.face_count()) {}
+
+void GroupedShaftCuller::set_receiver(const Vec3* a, int na) {
+  if (na < 1 || na > 4) throw std::invalid_argument("GroupedShaftCuller: a receiver of 1 to 4 points");
+  std::copy(a, a + na, receiver_);
+  receiver_count_ = na;
+  ++generation_;
+}
+
+void GroupedShaftCuller::occluders(int face, const Vec3* b, int nb, std::vector<int>& out) {
+  const Polygon& group = culler_->faces()[face];
+  if (static_cast<int>(group.size()) + receiver_count_ > kMaxShaftPoints) {
+    culler_->occluders(receiver_, receiver_count_, b, nb, out);  // a face of many corners: no group
+    return;
+  }
+  if (stamp_[face] != generation_) {
+    culler_->occluders(receiver_, receiver_count_, group.data(), static_cast<int>(group.size()), groups_[face]);
+    stamp_[face] = generation_;
+  }
+  culler_->occluders_among(receiver_, receiver_count_, b, nb, groups_[face], out);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -464,14 +523,17 @@ Visibility::Visibility(const Scene& scene, VisibilityMethod method) : method_(me
 
 double Visibility::point_to_patch(const Receiver& x, const Vec3* source, int n, const Vec3& source_normal,
                                   double unoccluded, const std::vector<int>& occluders, int rays, uint64_t stream,
-                                  long long& rays_cast) const {
+                                  long long& rays_cast, bool narrow) const {
   if (occluders.empty() || unoccluded <= 0.0) return unoccluded;
   // The shaft of the point and the patch is narrower than the pair's: test it too.
-  thread_local std::vector<int> narrow;
-  culler_.occluders(&x.point, 1, source, n, narrow);
-  if (narrow.empty()) return unoccluded;
+  thread_local std::vector<int> narrowed;
+  if (!narrow) {
+    culler_.occluders_among(&x.point, 1, source, n, occluders, narrowed);  // ⊆ the wider shaft's
+    if (narrowed.empty()) return unoccluded;
+  }
+  const std::vector<int>& which = narrow ? occluders : narrowed;
   if (method_ == VisibilityMethod::Exact)
-    return std::min(unoccluded, exact_visible_form_factor(x, source, n, culler_.faces(), narrow));
+    return std::min(unoccluded, exact_visible_form_factor(x, source, n, culler_.faces(), which));
   // Start just inside the point's own surface when it sits on an edge or corner, so rays leave cleanly.
   const Vec3 start = x.approach.isZero() ? x.point : Vec3(x.point + 10 * rays_->surface_offset() * x.approach);
   int used = 0;

@@ -55,7 +55,14 @@ class ShaftCuller {
   // plane (this leaves out the faces A and B lie in and faces they only touch), or when it lies
   // wholly on the outer closed side of one of the hull's planes. Conservative: a face kept may
   // still miss the shaft (edge–edge separating axes are not tried); a face left out cannot block.
+  // A and B together have at most 24 points (std::invalid_argument otherwise).
   void occluders(const Vec3* a, int na, const Vec3* b, int nb, std::vector<int>& out) const;
+
+  // The same test over `candidates` only (sorted face indices), into `out` in their order: exact
+  // when the candidates are the occluders of a wider shaft that contains this one (a face that
+  // misses the wider shaft misses this one too).
+  void occluders_among(const Vec3* a, int na, const Vec3* b, int nb, const std::vector<int>& candidates,
+                       std::vector<int>& out) const;
 
  private:
   struct Node {
@@ -70,6 +77,31 @@ class ShaftCuller {
   std::vector<int> order_;                     // face indices, leaf ranges point into it
   std::vector<Node> nodes_;                    // nodes_[0] is the root
   double tol_ = 0.0;
+};
+
+// Shaft culling of one receiver (a patch or a point) against many source patches, grouped by
+// the scene face each lies in (Haines & Wallace 1994 cull hierarchically the same way): the
+// shaft of the receiver and a whole face contains the shaft of the receiver and each of the
+// face's patches, so the face's candidate occluders are found once per receiver and face (BVH)
+// and each patch is tested against those only — usually none. Gives ShaftCuller::occluders() of
+// each pair or a subset of it (a face outside one plane of the wider hull is left out even where
+// no single plane of the pair's hull separates it), never leaving out a face that can block.
+// One per thread; not thread-safe.
+class GroupedShaftCuller {
+ public:
+  explicit GroupedShaftCuller(const ShaftCuller& culler);
+  // The receiver of the following queries: 1 to 4 points (a point, or a patch's corners).
+  void set_receiver(const Vec3* a, int na);
+  // The occluders of the shaft of the receiver and patch B (nb corners), B in scene face `face`.
+  void occluders(int face, const Vec3* b, int nb, std::vector<int>& out);
+
+ private:
+  const ShaftCuller* culler_;
+  Vec3 receiver_[4];
+  int receiver_count_ = 0;
+  long long generation_ = 0;              // one per receiver
+  std::vector<long long> stamp_;          // per face: the receiver its group list belongs to
+  std::vector<std::vector<int>> groups_;  // per face: occluders of the receiver–face shaft
 };
 
 // Exact visible form factor F(dA_x -> P minus the shadows of faces[which]), dimensionless in
@@ -129,12 +161,13 @@ class Visibility {
 
   // Visible part of F(dA_x -> P), given `unoccluded` = F(dA_x -> P) and the candidate occluders
   // of a shaft containing x and P (an empty list returns `unoccluded`). The narrower shaft of x
-  // and P is culled again first (the pair's shaft, from the fill, is tested once per pair). Ray mode
+  // and P is culled again first (the pair's shaft, from the fill, is tested once per pair), unless
+  // `narrow` says the occluders are already those of x's own shaft. Ray mode
   // casts `rays` segments (added to `rays_cast`) from x lifted off its surface (along
   // receiver.approach when set, else along the normal); exact mode ignores rays and stream.
   double point_to_patch(const Receiver& receiver, const Vec3* source, int n, const Vec3& source_normal,
                         double unoccluded, const std::vector<int>& occluders, int rays, uint64_t stream,
-                        long long& rays_cast) const;
+                        long long& rays_cast, bool narrow = false) const;
 
  private:
   VisibilityMethod method_;
