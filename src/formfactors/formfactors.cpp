@@ -65,7 +65,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
   double max_point_sum = 0.0;
 
   std::vector<GroupedShaftCuller> grouped_cullers;
-  if (vis) grouped_cullers.assign(size_t(omp_get_max_threads()), GroupedShaftCuller(vis->culler()));
+  if (vis) grouped_cullers.assign(size_t(omp_get_max_threads()), GroupedShaftCuller(vis->culler(), mesh));
 
 #pragma omp parallel for schedule(dynamic, 4) \
     reduction(+ : evaluated, backfacing, tested, culled, occluded, rays, above, rescaled, fixed_rule, gauss, adaptive, kernels, exact_rectangles) \
@@ -134,7 +134,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
         if (vis) {
           source();
           ++tested;
-          grouped->occluders(pj.face, sj, pj.corner_count, occluders);
+          grouped->occluders(j, sj, pj.corner_count, occluders);
           shaft_known = true;
         }
         if (!vis || occluders.empty()) {
@@ -177,7 +177,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
       if (vis && f0 > 0.0) {
         if (!shaft_known) {
           ++tested;
-          grouped->occluders(pj.face, sj, pj.corner_count, occluders);
+          grouped->occluders(j, sj, pj.corner_count, occluders);
         }
         if (occluders.empty()) {
           ++culled;

@@ -95,7 +95,7 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
   const PolygonBatch sources = patch_batch(mesh);
   // Shaft culling by source face first (visibility.h): one culler per thread.
   std::vector<GroupedShaftCuller> grouped_cullers;
-  if (vis) grouped_cullers.assign(size_t(omp_get_max_threads()), GroupedShaftCuller(vis->culler()));
+  if (vis) grouped_cullers.assign(size_t(omp_get_max_threads()), GroupedShaftCuller(vis->culler(), mesh));
 #pragma omp parallel for schedule(dynamic, 16) reduction(+ : evaluated, rays, tested, culled)
   for (int o = 0; o < np; ++o) {
     const OutputPoint& x = r.points[o];
@@ -120,7 +120,7 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
         ++tested;
         GroupedShaftCuller& grouped = grouped_cullers[size_t(omp_get_thread_num())];
         if (!receiver_set) grouped.set_receiver(&x.position, 1), receiver_set = true;
-        grouped.occluders(pj.face, src, pj.corner_count, occluders);
+        grouped.occluders(j, src, pj.corner_count, occluders);
         if (occluders.empty()) ++culled;
         else f = vis->point_to_patch(receiver, src, pj.corner_count, pj.normal, f, occluders, opt.rays,
                                      pair_stream(opt.seed ^ 0x5eedULL, uint64_t(o), uint64_t(j)), rays,

@@ -333,7 +333,7 @@ ViewFactorMatrix point_view_factors(const std::vector<SurfacePoint>& points, con
   const double tol = plane_tolerance(mesh);
   // Shaft culling by source face first (visibility.h): one culler per thread.
   std::vector<GroupedShaftCuller> grouped_cullers;
-  if (vis) grouped_cullers.assign(size_t(omp_get_max_threads()), GroupedShaftCuller(vis->culler()));
+  if (vis) grouped_cullers.assign(size_t(omp_get_max_threads()), GroupedShaftCuller(vis->culler(), mesh));
 #pragma omp parallel for schedule(dynamic, 4)
   for (int o = 0; o < np; ++o) {
     const SurfacePoint& x = points[static_cast<size_t>(o)];
@@ -354,7 +354,7 @@ ViewFactorMatrix point_view_factors(const std::vector<SurfacePoint>& points, con
       if (f > 0.0 && vis) {
         GroupedShaftCuller& grouped = grouped_cullers[size_t(omp_get_thread_num())];
         if (!receiver_set) grouped.set_receiver(&x.position, 1), receiver_set = true;
-        grouped.occluders(pj.face, src, pj.corner_count, occluders);
+        grouped.occluders(j, src, pj.corner_count, occluders);
         if (!occluders.empty())
           f = vis->point_to_patch(receiver, src, pj.corner_count, pj.normal, f, occluders, opt.rays,
                                   pair_stream(opt.seed ^ 0x9017ULL, uint64_t(o), uint64_t(j)), rays,

@@ -389,8 +389,81 @@ void ShaftCuller::occluders_among(const Vec3* a, int na, const Vec3* b, int nb, 
     if (boxes_[f].intersects(shaft.box()) && !shaft.misses(faces_[f], normals_[f])) out.push_back(f);
 }
 
-GroupedShaftCuller::GroupedShaftCuller(const ShaftCuller& culler)
-    : culler_(&culler), stamp_(culler.face_count(), -1), groups_(culler.face_count()) {}
+namespace {
+
+constexpr int kTilePatches = 16;
+
+// Splits patches[first, first + count) (indices of one face's patches, with their centroids'
+// in-plane coordinates uv) at the median of the longer extent until each part has at most
+// kTilePatches; appends the parts' ranges.
+void split_tiles(std::vector<int>& patches, const std::vector<Eigen::Vector2d>& uv, int first, int count,
+                 std::vector<std::pair<int, int>>& ranges) {
+  if (count <= kTilePatches) {
+    ranges.emplace_back(first, count);
+    return;
+  }
+  Eigen::AlignedBox2d box;
+  for (int k = first; k < first + count; ++k) box.extend(uv[size_t(patches[size_t(k)])]);
+  const int axis = box.sizes().x() >= box.sizes().y() ? 0 : 1;
+  const int half = count / 2;
+  std::nth_element(patches.begin() + first, patches.begin() + first + half, patches.begin() + first + count,
+                   [&](int x, int y) { return uv[size_t(x)][axis] < uv[size_t(y)][axis]; });
+  split_tiles(patches, uv, first, half, ranges);
+  split_tiles(patches, uv, first + half, count - half, ranges);
+}
+
+}  // namespace
+
+GroupedShaftCuller::GroupedShaftCuller(const ShaftCuller& culler, const PatchMesh& mesh)
+    : culler_(&culler), tile_of_patch_(size_t(mesh.size()), -1) {
+  const int faces = culler.face_count();
+  std::vector<std::vector<int>> by_face(static_cast<size_t>(faces));
+  for (int j = 0; j < mesh.size(); ++j)
+    if (mesh.patches[size_t(j)].face >= 0 && mesh.patches[size_t(j)].face < faces)
+      by_face[size_t(mesh.patches[size_t(j)].face)].push_back(j);
+  std::vector<Eigen::Vector2d> uv(size_t(mesh.size()), Eigen::Vector2d::Zero());
+  for (int f = 0; f < faces; ++f) {
+    std::vector<int>& patches = by_face[size_t(f)];
+    if (patches.empty()) continue;
+    // An orthonormal frame (u, v, w) with w the face's normal (any frame if it has none).
+    Vec3 w = polygon_normal(culler.faces()[size_t(f)]);
+    if (w.isZero()) w = Vec3::UnitZ();
+    const Vec3 u = w.unitOrthogonal(), v = w.cross(u);
+    for (int j : patches) uv[size_t(j)] = Eigen::Vector2d(u.dot(mesh.patches[size_t(j)].centroid), v.dot(mesh.patches[size_t(j)].centroid));
+    std::vector<std::pair<int, int>> ranges;
+    split_tiles(patches, uv, 0, static_cast<int>(patches.size()), ranges);
+    for (const auto& [first, count] : ranges) {
+      Eigen::AlignedBox3d box;  // in (u, v, w) coordinates
+      for (int k = first; k < first + count; ++k) {
+        const Patch& p = mesh.patches[size_t(patches[size_t(k)])];
+        for (int c = 0; c < p.corner_count; ++c) {
+          const Vec3& x = mesh.points[size_t(p.corners[size_t(c)])];
+          box.extend(Vec3(u.dot(x), v.dot(x), w.dot(x)));
+        }
+      }
+      // Grown by the culler's tolerance: the rectangle must contain the patches, not just touch them.
+      box.min().array() -= culler.tolerance();
+      box.max().array() += culler.tolerance();
+      Tile tile;
+      tile.face = f;
+      const bool flat = box.sizes().z() <= 4.0 * culler.tolerance();
+      const double w_mid = 0.5 * (box.min().z() + box.max().z());
+      const double us[2] = {box.min().x(), box.max().x()}, vs[2] = {box.min().y(), box.max().y()};
+      const double ws[2] = {box.min().z(), box.max().z()};
+      for (int iw = 0; iw < (flat ? 1 : 2); ++iw) {
+        const double wc = flat ? w_mid : ws[iw];
+        // Counter-clockwise around w: (u0,v0), (u1,v0), (u1,v1), (u0,v1).
+        const double cu[4] = {us[0], us[1], us[1], us[0]}, cv[4] = {vs[0], vs[0], vs[1], vs[1]};
+        for (int c = 0; c < 4; ++c) tile.corners[tile.corner_count++] = cu[c] * u + cv[c] * v + wc * w;
+      }
+      const int t = static_cast<int>(tiles_.size());
+      tiles_.push_back(tile);
+      for (int k = first; k < first + count; ++k) tile_of_patch_[size_t(patches[size_t(k)])] = t;
+    }
+  }
+  stamp_.assign(size_t(faces) + tiles_.size(), -1);
+  groups_.resize(size_t(faces) + tiles_.size());
+}
 
 void GroupedShaftCuller::set_receiver(const Vec3* a, int na) {
   if (na < 1 || na > 4) throw std::invalid_argument("GroupedShaftCuller: a receiver of 1 to 4 points");
@@ -399,17 +472,31 @@ void GroupedShaftCuller::set_receiver(const Vec3* a, int na) {
   ++generation_;
 }
 
-void GroupedShaftCuller::occluders(int face, const Vec3* b, int nb, std::vector<int>& out) {
-  const Polygon& group = culler_->faces()[face];
-  if (static_cast<int>(group.size()) + receiver_count_ > kMaxShaftPoints) {
-    culler_->occluders(receiver_, receiver_count_, b, nb, out);  // a face of many corners: no group
+const std::vector<int>& GroupedShaftCuller::group(int g) {
+  std::vector<int>& list = groups_[size_t(g)];
+  if (stamp_[size_t(g)] == generation_) return list;
+  stamp_[size_t(g)] = generation_;
+  const int faces = culler_->face_count();
+  if (g < faces) {
+    const Polygon& face = culler_->faces()[size_t(g)];
+    culler_->occluders(receiver_, receiver_count_, face.data(), static_cast<int>(face.size()), list);
+    return list;
+  }
+  const Tile& tile = tiles_[size_t(g - faces)];
+  if (static_cast<int>(culler_->faces()[size_t(tile.face)].size()) + 4 > kMaxShaftPoints)
+    culler_->occluders(receiver_, receiver_count_, tile.corners, tile.corner_count, list);  // a face of many corners: no face level
+  else
+    culler_->occluders_among(receiver_, receiver_count_, tile.corners, tile.corner_count, group(tile.face), list);
+  return list;
+}
+
+void GroupedShaftCuller::occluders(int patch, const Vec3* b, int nb, std::vector<int>& out) {
+  const int t = patch >= 0 && patch < static_cast<int>(tile_of_patch_.size()) ? tile_of_patch_[size_t(patch)] : -1;
+  if (t < 0) {
+    culler_->occluders(receiver_, receiver_count_, b, nb, out);
     return;
   }
-  if (stamp_[face] != generation_) {
-    culler_->occluders(receiver_, receiver_count_, group.data(), static_cast<int>(group.size()), groups_[face]);
-    stamp_[face] = generation_;
-  }
-  culler_->occluders_among(receiver_, receiver_count_, b, nb, groups_[face], out);
+  culler_->occluders_among(receiver_, receiver_count_, b, nb, group(culler_->face_count() + t), out);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -431,28 +518,52 @@ void clip_keep(const Polygon& in, const std::vector<double>& s, int keep, Polygo
   if (out.size() < 3) out.clear();
 }
 
+// A list of polygons that keeps its polygons' storage between uses (clear() forgets the count only).
+class PiecePool {
+ public:
+  void clear() { size_ = 0; }
+  size_t size() const { return size_; }
+  bool empty() const { return size_ == 0; }
+  Polygon& operator[](size_t i) { return store_[i]; }
+  Polygon& push() {
+    if (size_ == store_.size()) store_.emplace_back();
+    return store_[size_++];
+  }
+  friend void swap(PiecePool& a, PiecePool& b) noexcept {
+    a.store_.swap(b.store_);
+    std::swap(a.size_, b.size_);
+  }
+
+ private:
+  std::vector<Polygon> store_;
+  size_t size_ = 0;
+};
+
 }  // namespace
 
 double exact_visible_form_factor(const Receiver& receiver, const Vec3* source, int n,
                                  const std::vector<Polygon>& faces, const std::vector<int>& which) {
   const Vec3& x = receiver.point;
   // Work relative to x: every wedge plane then passes through the origin.
-  Polygon src(n);
+  // Per-thread scratch: this runs once per occluded pair, and allocation was a tenth of its cost.
+  thread_local PiecePool pieces, next;
+  thread_local std::vector<Plane> volume;  // here m·y >= d is inside the shadow volume
+  thread_local std::vector<double> s;
+  thread_local Polygon inside, outside, cur, wr;
+  pieces.clear();
+  Polygon& src = pieces.push();
+  src.resize(size_t(n));
   double scale = 0.0;
   for (int k = 0; k < n; ++k) {
-    src[k] = source[k] - x;
-    scale = std::max(scale, src[k].norm());
+    src[size_t(k)] = source[k] - x;
+    scale = std::max(scale, src[size_t(k)].norm());
   }
-  std::vector<Polygon> pieces{src}, next;
-  std::vector<Plane> volume;  // here m·y >= d is inside the shadow volume
-  std::vector<double> s;
-  Polygon inside, outside, cur;
   bool cut = false;
   for (int f : which) {
     const Polygon& w = faces[f];
     const int wn = static_cast<int>(w.size());
     double wscale = scale;
-    Polygon wr(wn);
+    wr.resize(size_t(wn));
     Vec3 centre = Vec3::Zero();
     for (int k = 0; k < wn; ++k) {
       wr[k] = w[k] - x;
@@ -478,8 +589,8 @@ double exact_visible_form_factor(const Receiver& receiver, const Vec3* source, i
     // Subtract the volume from every piece: the part outside plane 1, then the part inside 1
     // but outside 2, ... are visible; what lies inside every plane is in W's shadow.
     next.clear();
-    for (const Polygon& piece : pieces) {
-      cur = piece;
+    for (size_t pi = 0; pi < pieces.size(); ++pi) {
+      cur = pieces[pi];
       bool shadowed = true;
       for (const Plane& p : volume) {
         s.resize(cur.size());
@@ -490,28 +601,29 @@ double exact_visible_form_factor(const Receiver& receiver, const Vec3* source, i
           all_in = all_in && s[k] >= -eps;
         }
         if (all_out) {  // on or outside this plane (a coplanar piece counts as outside): visible
-          next.push_back(cur);
+          next.push() = cur;
           shadowed = false;
           break;
         }
         if (all_in) continue;
         cut = true;
         clip_keep(cur, s, -1, outside);
-        if (!outside.empty()) next.push_back(outside);
+        if (!outside.empty()) next.push() = outside;
         clip_keep(cur, s, +1, inside);
         cur.swap(inside);
         if (cur.empty()) { shadowed = false; break; }
       }
       if (shadowed) cut = true;
     }
-    pieces.swap(next);
+    swap(pieces, next);
     if (pieces.empty()) return 0.0;
   }
   if (!cut) return lambert_form_factor(receiver, source, n);
   // Lambert's formula is additive over a partition of the source (an integral over directions).
   const Receiver at_origin{Vec3::Zero(), receiver.normal, receiver.approach};
   double f = 0.0;
-  for (const Polygon& piece : pieces) f += lambert_form_factor(at_origin, piece.data(), static_cast<int>(piece.size()));
+  for (size_t pi = 0; pi < pieces.size(); ++pi)
+    f += lambert_form_factor(at_origin, pieces[pi].data(), static_cast<int>(pieces[pi].size()));
   return std::clamp(f, 0.0, 1.0);
 }
 

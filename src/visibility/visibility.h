@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "kernels/lambert.h"
+#include "patching/patching.h"
 #include "scene/scene.h"
 
 namespace photometria {
@@ -79,29 +80,40 @@ class ShaftCuller {
   double tol_ = 0.0;
 };
 
-// Shaft culling of one receiver (a patch or a point) against many source patches, grouped by
-// the scene face each lies in (Haines & Wallace 1994 cull hierarchically the same way): the
-// shaft of the receiver and a whole face contains the shaft of the receiver and each of the
-// face's patches, so the face's candidate occluders are found once per receiver and face (BVH)
-// and each patch is tested against those only — usually none. Gives ShaftCuller::occluders() of
-// each pair or a subset of it (a face outside one plane of the wider hull is left out even where
-// no single plane of the pair's hull separates it), never leaving out a face that can block.
+// Shaft culling of one receiver (a patch or a point) against every patch of a mesh, in a
+// hierarchy (Haines & Wallace 1994 cull hierarchically the same way): scene face, then tiles of
+// at most 16 of the face's patches (each bounded by a rectangle in the face's plane, or a box
+// if the face is not flat), then the patch. A wider shaft contains the narrower ones below it,
+// so a level's candidate occluders are found among its parent's only: the face's by the BVH once
+// per receiver and face, a tile's once per receiver and tile, and each patch is tested against
+// its tile's list — usually empty. The result is ShaftCuller::occluders() of the pair or a
+// subset of it (a face outside one plane of a wider hull is left out even where no single plane
+// of the pair's hull separates it), never leaving out a face that can block.
 // One per thread; not thread-safe.
 class GroupedShaftCuller {
  public:
-  explicit GroupedShaftCuller(const ShaftCuller& culler);
+  GroupedShaftCuller(const ShaftCuller& culler, const PatchMesh& mesh);
   // The receiver of the following queries: 1 to 4 points (a point, or a patch's corners).
   void set_receiver(const Vec3* a, int na);
-  // The occluders of the shaft of the receiver and patch B (nb corners), B in scene face `face`.
-  void occluders(int face, const Vec3* b, int nb, std::vector<int>& out);
+  // The occluders of the shaft of the receiver and patch `patch` of the mesh (corners b, nb).
+  void occluders(int patch, const Vec3* b, int nb, std::vector<int>& out);
 
  private:
+  struct Tile {
+    int face = 0;
+    int corner_count = 0;  // 4 (a rectangle in the face's plane) or 8 (a box)
+    Vec3 corners[8];
+  };
+  // The candidates of group g (faces first, then tiles), computed on first need per receiver.
+  const std::vector<int>& group(int g);
   const ShaftCuller* culler_;
+  std::vector<Tile> tiles_;
+  std::vector<int> tile_of_patch_;
   Vec3 receiver_[4];
   int receiver_count_ = 0;
   long long generation_ = 0;              // one per receiver
-  std::vector<long long> stamp_;          // per face: the receiver its group list belongs to
-  std::vector<std::vector<int>> groups_;  // per face: occluders of the receiver–face shaft
+  std::vector<long long> stamp_;          // per group: the receiver its list belongs to
+  std::vector<std::vector<int>> groups_;  // per group: occluders of the receiver–group shaft
 };
 
 // Exact visible form factor F(dA_x -> P minus the shadows of faces[which]), dimensionless in
