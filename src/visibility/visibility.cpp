@@ -577,6 +577,12 @@ double exact_visible_form_factor(const Receiver& receiver, const Vec3* source, i
     volume.clear();
     // Beyond W's plane, on the side away from x.
     volume.push_back({h > 0 ? nw : Vec3(-nw), std::abs(h)});
+    // Every piece on x's side of that plane: W hides none of it (the usual case for the back
+    // faces of a box and for occluders behind the source), so skip the wedge planes.
+    bool all_near = true;
+    for (size_t pi = 0; pi < pieces.size() && all_near; ++pi)
+      for (const Vec3& y : pieces[pi]) all_near = all_near && volume[0].m.dot(y) - volume[0].d <= eps;
+    if (all_near) continue;
     // Inside the cone from x through W: one wedge plane through x per edge, oriented to W.
     for (int k = 0; k < wn; ++k) {
       Vec3 m = wr[k].cross(wr[(k + 1) % wn]);
