@@ -9,6 +9,7 @@
 #include "kernels/lambert.h"
 #include "pipeline/solve.h"
 #include "scene_builders.h"
+#include "validation/bench.h"
 #include "visibility/visibility.h"
 #include "visibility_configs.h"
 
@@ -291,4 +292,49 @@ TEST(VisibilityScenes, GroupedCullerKeepsEveryOccluderItNeeds) {
   EXPECT_GT(checked, 5000);
   EXPECT_GT(occluded, 100);
   EXPECT_GE(culled_grouped, culled_pair);
+}
+
+// Convex solids (the furniture's boxes) cast their shadows with the faces toward the receiver
+// only: dropping the rest changes no exact visible factor, also for receivers on the floor under
+// a leg (on the solid's surface: nothing dropped) and on the furniture itself. The room (normals
+// inward) is not a convex solid.
+TEST(VisibilityScenes, ConvexSolidsCastShadowsWithTheirFrontFacesOnly) {
+  const Scene room = validation::bench_room_scene();
+  const ShaftCuller culler(room);
+  EXPECT_EQ(culler.convex_solid_count(), static_cast<int>(validation::bench_room_furniture().size()));
+  const PatchMesh mesh = subdivide(room, {0.3, 0.0});
+  std::vector<int> everything(culler.face_count());
+  std::iota(everything.begin(), everything.end(), 0);
+  std::vector<int> kept;
+  const double tol = plane_tolerance(mesh);
+  int checked = 0, reduced = 0, occluded = 0;
+  Vec3 b[4];
+  for (int i = 0; i < mesh.size(); i += 7) {
+    const Patch& pi = mesh.patches[i];
+    const Receiver x{pi.centroid, pi.normal};
+    kept = everything;
+    culler.drop_hidden_faces(x.point, kept);
+    reduced += kept.size() < everything.size();
+    for (int j = i % 11; j < mesh.size(); j += 11) {
+      if (i == j || facing_away(mesh, i, j, tol)) continue;
+      mesh.polygon(j, b);
+      const int nb = mesh.patches[j].corner_count;
+      const double all = exact_visible_form_factor(x, b, nb, culler.faces(), everything);
+      EXPECT_NEAR(exact_visible_form_factor(x, b, nb, culler.faces(), kept), all, 1e-13) << i << " " << j;
+      occluded += all < lambert_form_factor(x, b, nb) - 1e-12;
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 2000);
+  EXPECT_GT(occluded, 200);
+  EXPECT_GT(reduced, 50);
+  // A floor point under a table leg is on the leg's surface: every face of the leg stays.
+  const validation::BenchBox leg = validation::bench_room_furniture()[1];
+  const Vec3 under_leg(0.5 * (leg.lo.x() + leg.hi.x()), 0.5 * (leg.lo.y() + leg.hi.y()), 0.0);
+  kept = everything;
+  culler.drop_hidden_faces(under_leg, kept);
+  const int first_leg_face = 6 + 1 + 6 * 1;  // room, light, table top, then the leg (bench.h)
+  for (int f = first_leg_face; f < first_leg_face + 6; ++f)
+    EXPECT_TRUE(std::find(kept.begin(), kept.end(), f) != kept.end()) << f;
+  EXPECT_LT(kept.size(), everything.size());  // the other solids' back faces do go
 }

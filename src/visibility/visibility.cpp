@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <numeric>
 #include <sstream>
 #include <stdexcept>
@@ -326,6 +327,76 @@ ShaftCuller::ShaftCuller(const Scene& scene) {
     nodes_.reserve(2 * n);
     build(0, n);
   }
+  find_convex_solids(scene);
+}
+
+void ShaftCuller::find_convex_solids(const Scene& scene) {
+  const int n = static_cast<int>(scene.faces.size());
+  solid_of_.assign(size_t(n), -1);
+  // Faces joined by shared edges (vertex index pairs), union–find.
+  std::vector<int> parent(static_cast<size_t>(n));
+  std::iota(parent.begin(), parent.end(), 0);
+  auto root = [&](int f) {
+    while (parent[size_t(f)] != f) f = parent[size_t(f)] = parent[size_t(parent[size_t(f)])];
+    return f;
+  };
+  std::map<std::pair<int, int>, std::vector<int>> edge_faces;  // directed edge -> faces using it
+  for (int f = 0; f < n; ++f) {
+    const std::vector<int>& v = scene.faces[size_t(f)].vertices;
+    for (size_t k = 0; k < v.size(); ++k) edge_faces[{v[k], v[(k + 1) % v.size()]}].push_back(f);
+  }
+  std::vector<char> manifold(static_cast<size_t>(n), 1);
+  for (const auto& [edge, faces] : edge_faces) {
+    const auto twin = edge_faces.find({edge.second, edge.first});
+    // Closed and consistently oriented: each directed edge once, its reverse once, in another face.
+    if (faces.size() != 1 || twin == edge_faces.end() || twin->second.size() != 1 || twin->second[0] == faces[0]) {
+      for (int f : faces) manifold[size_t(f)] = 0;
+      continue;
+    }
+    const int a = root(faces[0]), b = root(twin->second[0]);
+    if (a != b) parent[size_t(a)] = b;
+  }
+  std::map<int, std::vector<int>> components;
+  for (int f = 0; f < n; ++f) components[root(f)].push_back(f);
+  for (const auto& [r, faces] : components) {
+    (void)r;
+    bool eligible = faces.size() >= 4;
+    for (int f : faces) eligible = eligible && manifold[size_t(f)] && !normals_[size_t(f)].isZero();
+    // Convex with outward normals: every vertex of the solid on or behind every face's plane.
+    for (size_t i = 0; i < faces.size() && eligible; ++i)
+      for (int g : faces)
+        for (const Vec3& v : faces_[size_t(g)])
+          eligible = eligible && normals_[size_t(faces[i])].dot(v - faces_[size_t(faces[i])][0]) <= tol_;
+    if (!eligible) continue;
+    const int id = static_cast<int>(solids_.size());
+    solids_.push_back(faces);
+    for (int f : faces) solid_of_[size_t(f)] = id;
+  }
+}
+
+void ShaftCuller::drop_hidden_faces(const Vec3& x, std::vector<int>& faces) const {
+  if (solids_.empty()) return;
+  // Signed distance of x in front of face f's plane.
+  auto height = [&](int f) { return normals_[size_t(f)].dot(x - faces_[size_t(f)][0]); };
+  thread_local std::vector<int> outside_of;  // solids x is known to lie strictly outside of
+  thread_local std::vector<int> inside_of;   // solids x is not strictly outside of
+  outside_of.clear();
+  inside_of.clear();
+  size_t kept = 0;
+  for (int f : faces) {
+    const int solid = solid_of_[size_t(f)];
+    bool drop = false;
+    if (solid >= 0 && height(f) < -tol_) {
+      bool outside = std::find(outside_of.begin(), outside_of.end(), solid) != outside_of.end();
+      if (!outside && std::find(inside_of.begin(), inside_of.end(), solid) == inside_of.end()) {
+        for (int g : solids_[size_t(solid)]) outside = outside || height(g) > tol_;
+        (outside ? outside_of : inside_of).push_back(solid);
+      }
+      drop = outside;
+    }
+    if (!drop) faces[kept++] = f;
+  }
+  faces.resize(kept);
 }
 
 // Median split on the longest axis of the box centres; leaves hold up to 4 faces.
@@ -649,9 +720,13 @@ double Visibility::point_to_patch(const Receiver& x, const Vec3* source, int n, 
     culler_.occluders_among(&x.point, 1, source, n, occluders, narrowed);  // ⊆ the wider shaft's
     if (narrowed.empty()) return unoccluded;
   }
-  const std::vector<int>& which = narrow ? occluders : narrowed;
-  if (method_ == VisibilityMethod::Exact)
-    return std::min(unoccluded, exact_visible_form_factor(x, source, n, culler_.faces(), which));
+  if (method_ == VisibilityMethod::Exact) {
+    // Only the faces of each convex solid that face x cast its shadow (see ShaftCuller).
+    thread_local std::vector<int> casting;
+    casting = narrow ? occluders : narrowed;
+    culler_.drop_hidden_faces(x.point, casting);
+    return std::min(unoccluded, exact_visible_form_factor(x, source, n, culler_.faces(), casting));
+  }
   // Start just inside the point's own surface when it sits on an edge or corner, so rays leave cleanly.
   const Vec3 start = x.approach.isZero() ? x.point : Vec3(x.point + 10 * rays_->surface_offset() * x.approach);
   int used = 0;

@@ -65,6 +65,15 @@ class ShaftCuller {
   void occluders_among(const Vec3* a, int na, const Vec3* b, int nb, const std::vector<int>& candidates,
                        std::vector<int>& out) const;
 
+  // Removes from `faces` those that cannot add to the shadow seen from x: the faces of a convex
+  // solid (a closed, consistently oriented component of faces joined by shared edges, every vertex
+  // on or behind every face's plane: a box) that x lies clearly behind, when x lies clearly
+  // outside the solid. Any segment from x that meets such a back face enters the solid through a
+  // face x is in front of first, so the solid's shadow is that of its faces toward x. A point on
+  // the solid's surface or inside it keeps every face.
+  void drop_hidden_faces(const Vec3& x, std::vector<int>& faces) const;
+  int convex_solid_count() const { return static_cast<int>(solids_.size()); }
+
  private:
   struct Node {
     Eigen::AlignedBox3d box;
@@ -72,7 +81,10 @@ class ShaftCuller {
     int first = 0, count = 0;   // leaves: range in order_
   };
   int build(int first, int count);
+  void find_convex_solids(const Scene& scene);
   std::vector<Polygon> faces_;
+  std::vector<std::vector<int>> solids_;       // faces of each convex solid
+  std::vector<int> solid_of_;                  // per face: its convex solid, or -1
   std::vector<Vec3> normals_;                  // unit plane normals
   std::vector<Eigen::AlignedBox3d> boxes_;
   std::vector<int> order_;                     // face indices, leaf ranges point into it
