@@ -551,6 +551,9 @@ const std::vector<int>& GroupedShaftCuller::group(int g) {
   if (g < faces) {
     const Polygon& face = culler_->faces()[size_t(g)];
     culler_->occluders(receiver_, receiver_count_, face.data(), static_cast<int>(face.size()), list);
+    // From a point, a convex solid's back faces cast no shadow of their own (drop_hidden_faces):
+    // leaving them out here shortens every list below.
+    if (receiver_count_ == 1) culler_->drop_hidden_faces(receiver_[0], list);
     return list;
   }
   const Tile& tile = tiles_[size_t(g - faces)];

@@ -100,7 +100,9 @@ class ShaftCuller {
 // per receiver and face, a tile's once per receiver and tile, and each patch is tested against
 // its tile's list — usually empty. The result is ShaftCuller::occluders() of the pair or a
 // subset of it (a face outside one plane of a wider hull is left out even where no single plane
-// of the pair's hull separates it), never leaving out a face that can block.
+// of the pair's hull separates it; for a point receiver, the back faces of convex solids it is
+// outside of, see ShaftCuller::drop_hidden_faces), never leaving out a face that can add to the
+// shadow.
 // One per thread; not thread-safe.
 class GroupedShaftCuller {
  public:
