@@ -426,11 +426,32 @@ int ShaftCuller::build(int first, int count) {
   return id;
 }
 
-void ShaftCuller::occluders(const Vec3* a, int na, const Vec3* b, int nb, std::vector<int>& out) const {
+void ShaftCuller::occluders(const Vec3* a, int na, const Vec3* b, int nb, std::vector<int>& out,
+                            bool drop_hidden) const {
   out.clear();
   if (nodes_.empty()) return;
   if (na + nb > kMaxShaftPoints) throw std::invalid_argument("ShaftCuller: a shaft of more than 24 points");
+  if (drop_hidden && na != 1) throw std::invalid_argument("ShaftCuller: drop_hidden needs a point receiver");
   Shaft shaft(a, na, b, nb, tol_);
+  // drop_hidden: whether the point is clearly outside each convex solid, found on first need
+  // (0 unknown, 1 outside, 2 not); the faces it is clearly behind are then skipped before the
+  // costlier shaft tests (drop_hidden_faces() applied during the traversal).
+  thread_local std::vector<signed char> outside_state;
+  thread_local std::vector<int> touched;
+  if (drop_hidden) outside_state.resize(solids_.size(), 0);
+  auto height = [&](int f) { return normals_[size_t(f)].dot(a[0] - faces_[size_t(f)][0]); };
+  auto hidden = [&](int f) {
+    const int solid = solid_of_[size_t(f)];
+    if (solid < 0 || !(height(f) < -tol_)) return false;
+    signed char& state = outside_state[size_t(solid)];
+    if (state == 0) {
+      bool outside = false;
+      for (int g : solids_[size_t(solid)]) outside = outside || height(g) > tol_;
+      state = outside ? 1 : 2;
+      touched.push_back(solid);
+    }
+    return state == 1;
+  };
   int stack[128];
   int top = 0;
   stack[top++] = 0;
@@ -440,12 +461,17 @@ void ShaftCuller::occluders(const Vec3* a, int na, const Vec3* b, int nb, std::v
     if (node.left < 0) {
       for (int k = node.first; k < node.first + node.count; ++k) {
         const int f = order_[k];
-        if (boxes_[f].intersects(shaft.box()) && !shaft.misses(faces_[f], normals_[f])) out.push_back(f);
+        if (boxes_[f].intersects(shaft.box()) && !(drop_hidden && hidden(f)) && !shaft.misses(faces_[f], normals_[f]))
+          out.push_back(f);
       }
     } else {
       stack[top++] = node.left;
       stack[top++] = node.right;
     }
+  }
+  if (drop_hidden) {
+    for (int solid : touched) outside_state[size_t(solid)] = 0;
+    touched.clear();
   }
   std::sort(out.begin(), out.end());  // a fixed order: results do not depend on the traversal
 }
@@ -550,10 +576,10 @@ const std::vector<int>& GroupedShaftCuller::group(int g) {
   const int faces = culler_->face_count();
   if (g < faces) {
     const Polygon& face = culler_->faces()[size_t(g)];
-    culler_->occluders(receiver_, receiver_count_, face.data(), static_cast<int>(face.size()), list);
     // From a point, a convex solid's back faces cast no shadow of their own (drop_hidden_faces):
     // leaving them out here shortens every list below.
-    if (receiver_count_ == 1) culler_->drop_hidden_faces(receiver_[0], list);
+    culler_->occluders(receiver_, receiver_count_, face.data(), static_cast<int>(face.size()), list,
+                       /*drop_hidden=*/receiver_count_ == 1);
     return list;
   }
   const Tile& tile = tiles_[size_t(g - faces)];

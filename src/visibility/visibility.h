@@ -56,8 +56,10 @@ class ShaftCuller {
   // plane (this leaves out the faces A and B lie in and faces they only touch), or when it lies
   // wholly on the outer closed side of one of the hull's planes. Conservative: a face kept may
   // still miss the shaft (edge–edge separating axes are not tried); a face left out cannot block.
-  // A and B together have at most 24 points (std::invalid_argument otherwise).
-  void occluders(const Vec3* a, int na, const Vec3* b, int nb, std::vector<int>& out) const;
+  // A and B together have at most 24 points (std::invalid_argument otherwise). With
+  // `drop_hidden` (A a single point x, na = 1), drop_hidden_faces(x, out) is applied as well,
+  // cheaply, during the search.
+  void occluders(const Vec3* a, int na, const Vec3* b, int nb, std::vector<int>& out, bool drop_hidden = false) const;
 
   // The same test over `candidates` only (sorted face indices), into `out` in their order: exact
   // when the candidates are the occluders of a wider shaft that contains this one (a face that
