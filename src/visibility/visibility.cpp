@@ -262,8 +262,41 @@ class Shaft {
   }
 
  private:
+  // A point and a convex polygon it does not lie in the plane of (the gathers' and the centroid
+  // rule's shafts): the hull is a pyramid whose planes are known, one per base edge through the
+  // apex plus the base, so no candidate needs checking against every point.
+  bool build_pyramid_planes() {
+    if (na_ != 1 || nb_ < 3 || nb_ > 4) return false;
+    const Vec3& x = a_[0];
+    const Vec3 nb = newell_vector(b_, nb_);
+    const double nlen = nb.norm();
+    if (!(nlen > 0.0)) return false;
+    const Vec3 n = nb / nlen;
+    const double h = n.dot(x - b_[0]);
+    if (!(std::abs(h) > tol_)) return false;  // apex (nearly) in the base plane
+    Vec3 centre = Vec3::Zero();
+    for (int k = 0; k < nb_; ++k) {
+      const Vec3 turn = (b_[(k + 1) % nb_] - b_[k]).cross(b_[(k + 2) % nb_] - b_[(k + 1) % nb_]);
+      if (!(turn.dot(n) > 0.0)) return false;  // not strictly convex: the general hull
+      centre += b_[k] / nb_;
+    }
+    for (int k = 0; k < nb_; ++k) {
+      Vec3 m = (b_[k] - x).cross(b_[(k + 1) % nb_] - x);
+      const double len = m.norm();
+      if (!(len > 0.0)) return false;
+      m /= len;
+      if (m.dot(centre - x) > 0.0) m = -m;  // pointing out of the pyramid
+      planes_[plane_count_++] = {m, m.dot(x)};
+    }
+    const Vec3 out = h > 0.0 ? Vec3(-n) : n;  // beyond the base, away from the apex
+    planes_[plane_count_++] = {out, out.dot(b_[0])};
+    return true;
+  }
+
   void build_planes() {
     have_planes_ = true;
+    if (build_pyramid_planes()) return;
+    plane_count_ = 0;
     Vec3 pts[kMaxShaftPoints];
     int np = 0;
     for (int k = 0; k < na_; ++k) pts[np++] = a_[k];
@@ -642,7 +675,8 @@ class PiecePool {
 }  // namespace
 
 double exact_visible_form_factor(const Receiver& receiver, const Vec3* source, int n,
-                                 const std::vector<Polygon>& faces, const std::vector<int>& which) {
+                                 const std::vector<Polygon>& faces, const std::vector<int>& which,
+                                 const std::vector<Vec3>* normals) {
   const Vec3& x = receiver.point;
   // Work relative to x: every wedge plane then passes through the origin.
   // Per-thread scratch: this runs once per occluded pair, and allocation was a tenth of its cost.
@@ -671,7 +705,7 @@ double exact_visible_form_factor(const Receiver& receiver, const Vec3* source, i
       wscale = std::max(wscale, wr[k].norm());
     }
     const double eps = 1e-12 * wscale;
-    const Vec3 nw = polygon_normal(w);
+    const Vec3 nw = normals ? (*normals)[size_t(f)] : polygon_normal(w);
     const double h = nw.dot(wr[0]);  // signed distance of W's plane from x along nw
     if (std::abs(h) <= eps || nw.isZero()) continue;  // seen edge-on: blocks nothing
     volume.clear();
@@ -754,7 +788,7 @@ double Visibility::point_to_patch(const Receiver& x, const Vec3* source, int n, 
     thread_local std::vector<int> casting;
     casting = narrow ? occluders : narrowed;
     culler_.drop_hidden_faces(x.point, casting);
-    return std::min(unoccluded, exact_visible_form_factor(x, source, n, culler_.faces(), casting));
+    return std::min(unoccluded, exact_visible_form_factor(x, source, n, culler_.faces(), casting, &culler_.normals()));
   }
   // Start just inside the point's own surface when it sits on an edge or corner, so rays leave cleanly.
   const Vec3 start = x.approach.isZero() ? x.point : Vec3(x.point + 10 * rays_->surface_offset() * x.approach);

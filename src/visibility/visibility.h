@@ -48,6 +48,7 @@ class ShaftCuller {
 
   int face_count() const { return static_cast<int>(faces_.size()); }
   const std::vector<Polygon>& faces() const { return faces_; }
+  const std::vector<Vec3>& normals() const { return normals_; }  // unit plane normals (polygon_normal)
   double tolerance() const { return tol_; }  // metres, 1e-9 × scene diagonal
 
   // Replaces `out` with the faces that may meet the open shaft of A and B: convex planar
@@ -137,8 +138,10 @@ class GroupedShaftCuller {
 // Occluders are two-sided; one seen edge-on from x (x in its plane, within 1e-12 of the scene
 // size) blocks nothing, and nothing on or in front of an occluder's plane (seen from x) is
 // hidden by it, so coplanar neighbours of the source do not shadow it.
+// `normals` (optional): the faces' unit plane normals (polygon_normal), so they are not recomputed.
 double exact_visible_form_factor(const Receiver& receiver, const Vec3* source, int n,
-                                 const std::vector<Polygon>& faces, const std::vector<int>& which);
+                                 const std::vector<Polygon>& faces, const std::vector<int>& which,
+                                 const std::vector<Vec3>* normals = nullptr);
 
 // Ray-cast visibility with Embree 3 (see 2. above). Thread-safe after construction; results
 // depend only on (seed, pair), never on the thread count.
