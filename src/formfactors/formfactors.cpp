@@ -82,7 +82,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
     if (rays_mode) ray_part.assign(size_t(nq) * n, 0.0);
     std::vector<double> unoccluded(nq);
     std::vector<int> occluders;
-    // Shaft culling by source face first (visibility.h); one per thread, reused across rows.
+    // Shaft culling in a hierarchy (face, tile, patch; visibility.h); one per thread, reused across rows.
     GroupedShaftCuller* grouped = vis ? &grouped_cullers[size_t(omp_get_thread_num())] : nullptr;
     // With a one-point rule and no per-pair rule, visibility is taken from that point alone: cull
     // the point's shafts, narrower and cheaper than the patch's, and tell point_to_patch() they

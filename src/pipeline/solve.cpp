@@ -93,7 +93,7 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
   long long evaluated = 0, rays = 0, tested = 0, culled = 0;
   // Every patch as one SIMD batch: a point's kernel to all patches in one call (lambert_batch.h).
   const PolygonBatch sources = patch_batch(mesh);
-  // Shaft culling by source face first (visibility.h): one culler per thread.
+  // Shaft culling in a hierarchy (face, tile, patch; visibility.h): one culler per thread.
   std::vector<GroupedShaftCuller> grouped_cullers;
   if (vis) grouped_cullers.assign(size_t(omp_get_max_threads()), GroupedShaftCuller(vis->culler(), mesh));
 #pragma omp parallel for schedule(dynamic, 16) reduction(+ : evaluated, rays, tested, culled)

@@ -331,7 +331,7 @@ ViewFactorMatrix point_view_factors(const std::vector<SurfacePoint>& points, con
   const int np = static_cast<int>(points.size());
   ViewFactorMatrix out = ViewFactorMatrix::Zero(np, agg.size());
   const double tol = plane_tolerance(mesh);
-  // Shaft culling by source face first (visibility.h): one culler per thread.
+  // Shaft culling in a hierarchy (face, tile, patch; visibility.h): one culler per thread.
   std::vector<GroupedShaftCuller> grouped_cullers;
   if (vis) grouped_cullers.assign(size_t(omp_get_max_threads()), GroupedShaftCuller(vis->culler(), mesh));
 #pragma omp parallel for schedule(dynamic, 4)
