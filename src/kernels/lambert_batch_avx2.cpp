@@ -248,17 +248,21 @@ bool simd_atan2_avx2(const double* y, const double* x, double* out, int n) {
   return true;
 }
 
+// Θ·proj/len with Θ = atan2(len, dot), len = √len2, as the scalar kernel rounds it: (Θ·proj)/len;
+// 0 where len2 = 0 (seed 000 eq. 1, one edge's term).
+inline B edge_term(const B& len2, const B& ab, const B& proj) {
+  const B len = xsimd::sqrt(len2);
+  B theta;
+  atan2_upper<1>(&len, &ab, &theta);
+  const M zero = len2 == B(0.0);
+  return and_not(zero, (theta * proj) / xsimd::select(zero, B(1.0), len));
+}
+
 void edge_terms_avx2(const double* len2, const double* dot, const double* proj, double* out, int n) {
   for (int i = 0; i < n; i += kWidth) {
     alignas(32) double ll[kWidth] = {0, 0, 0, 0}, dd[kWidth] = {1, 1, 1, 1}, pp[kWidth] = {0, 0, 0, 0}, r[kWidth];
     for (int l = 0; l < kWidth && i + l < n; ++l) ll[l] = len2[i + l], dd[l] = dot[i + l], pp[l] = proj[i + l];
-    const B l2 = B::load_aligned(ll), len = xsimd::sqrt(l2), x = B::load_aligned(dd);
-    B theta;
-    atan2_upper<1>(&len, &x, &theta);
-    // Θ·proj/len as the scalar kernel rounds it: (Θ·proj)/len; 0 where len = 0.
-    const M zero = l2 == B(0.0);
-    const B term = and_not(zero, (theta * B::load_aligned(pp)) / xsimd::select(zero, B(1.0), len));
-    term.store_aligned(r);
+    edge_term(B::load_aligned(ll), B::load_aligned(dd), B::load_aligned(pp)).store_aligned(r);
     for (int l = 0; l < kWidth && i + l < n; ++l) out[i + l] = r[l];
   }
 }
@@ -274,13 +278,8 @@ double small_polygon_edge_sum_avx2(const double* x, const double* y, const doubl
   const M a_shorter = dot(a, a) <= dot(b, b);
   const V3 s{xsimd::select(a_shorter, a.x, b.x), xsimd::select(a_shorter, a.y, b.y), xsimd::select(a_shorter, a.z, b.z)};
   const V3 c = cross(s, e);  // a_k × a_{k+1}, on the shorter of the two (lambert.cpp)
-  const B len2 = dot(c, c), len = xsimd::sqrt(len2), ab = dot(a, b);
   const V3 normal{B(N[0]), B(N[1]), B(N[2])};
-  const B proj = dot(normal, c);
-  B theta;
-  atan2_upper<1>(&len, &ab, &theta);
-  const M zero = len2 == B(0.0);
-  const B term = and_not(zero, (theta * proj) / xsimd::select(zero, B(1.0), len));
+  const B term = edge_term(dot(c, c), dot(a, b), dot(normal, c));
   alignas(32) double t[kWidth];
   term.store_aligned(t);
   double sum = 0.0;

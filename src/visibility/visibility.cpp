@@ -407,29 +407,33 @@ void ShaftCuller::find_convex_solids(const Scene& scene) {
   }
 }
 
+bool ShaftCuller::hidden_from(const Vec3& x, int f, std::vector<signed char>& outside_state,
+                              std::vector<int>& touched) const {
+  const int solid = solid_of_[size_t(f)];
+  // Signed distance of x in front of face g's plane.
+  auto height = [&](int g) { return normals_[size_t(g)].dot(x - faces_[size_t(g)][0]); };
+  if (solid < 0 || !(height(f) < -tol_)) return false;
+  signed char& state = outside_state[size_t(solid)];
+  if (state == 0) {
+    bool outside = false;
+    for (int g : solids_[size_t(solid)]) outside = outside || height(g) > tol_;
+    state = outside ? 1 : 2;
+    touched.push_back(solid);
+  }
+  return state == 1;
+}
+
 void ShaftCuller::drop_hidden_faces(const Vec3& x, std::vector<int>& faces) const {
   if (solids_.empty()) return;
-  // Signed distance of x in front of face f's plane.
-  auto height = [&](int f) { return normals_[size_t(f)].dot(x - faces_[size_t(f)][0]); };
-  thread_local std::vector<int> outside_of;  // solids x is known to lie strictly outside of
-  thread_local std::vector<int> inside_of;   // solids x is not strictly outside of
-  outside_of.clear();
-  inside_of.clear();
+  thread_local std::vector<signed char> outside_state;
+  thread_local std::vector<int> touched;
+  outside_state.resize(solids_.size(), 0);
   size_t kept = 0;
-  for (int f : faces) {
-    const int solid = solid_of_[size_t(f)];
-    bool drop = false;
-    if (solid >= 0 && height(f) < -tol_) {
-      bool outside = std::find(outside_of.begin(), outside_of.end(), solid) != outside_of.end();
-      if (!outside && std::find(inside_of.begin(), inside_of.end(), solid) == inside_of.end()) {
-        for (int g : solids_[size_t(solid)]) outside = outside || height(g) > tol_;
-        (outside ? outside_of : inside_of).push_back(solid);
-      }
-      drop = outside;
-    }
-    if (!drop) faces[kept++] = f;
-  }
+  for (int f : faces)
+    if (!hidden_from(x, f, outside_state, touched)) faces[kept++] = f;
   faces.resize(kept);
+  for (int solid : touched) outside_state[size_t(solid)] = 0;
+  touched.clear();
 }
 
 // Median split on the longest axis of the box centres; leaves hold up to 4 faces.
@@ -466,25 +470,12 @@ void ShaftCuller::occluders(const Vec3* a, int na, const Vec3* b, int nb, std::v
   if (na + nb > kMaxShaftPoints) throw std::invalid_argument("ShaftCuller: a shaft of more than 24 points");
   if (drop_hidden && na != 1) throw std::invalid_argument("ShaftCuller: drop_hidden needs a point receiver");
   Shaft shaft(a, na, b, nb, tol_);
-  // drop_hidden: whether the point is clearly outside each convex solid, found on first need
-  // (0 unknown, 1 outside, 2 not); the faces it is clearly behind are then skipped before the
-  // costlier shaft tests (drop_hidden_faces() applied during the traversal).
+  // drop_hidden: the faces the point is clearly behind, of convex solids it is clearly outside
+  // of, are skipped before the costlier shaft tests (drop_hidden_faces() during the search).
   thread_local std::vector<signed char> outside_state;
   thread_local std::vector<int> touched;
   if (drop_hidden) outside_state.resize(solids_.size(), 0);
-  auto height = [&](int f) { return normals_[size_t(f)].dot(a[0] - faces_[size_t(f)][0]); };
-  auto hidden = [&](int f) {
-    const int solid = solid_of_[size_t(f)];
-    if (solid < 0 || !(height(f) < -tol_)) return false;
-    signed char& state = outside_state[size_t(solid)];
-    if (state == 0) {
-      bool outside = false;
-      for (int g : solids_[size_t(solid)]) outside = outside || height(g) > tol_;
-      state = outside ? 1 : 2;
-      touched.push_back(solid);
-    }
-    return state == 1;
-  };
+  auto hidden = [&](int f) { return hidden_from(a[0], f, outside_state, touched); };
   int stack[128];
   int top = 0;
   stack[top++] = 0;

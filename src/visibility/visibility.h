@@ -85,6 +85,10 @@ class ShaftCuller {
   };
   int build(int first, int count);
   void find_convex_solids(const Scene& scene);
+  // True when x is clearly behind face f of a convex solid it is clearly outside of.
+  // outside_state caches per solid whether x is outside it (0 unknown, 1 yes, 2 no); touched lists
+  // the solids set, for the caller to reset.
+  bool hidden_from(const Vec3& x, int f, std::vector<signed char>& outside_state, std::vector<int>& touched) const;
   std::vector<Polygon> faces_;
   std::vector<std::vector<int>> solids_;       // faces of each convex solid
   std::vector<int> solid_of_;                  // per face: its convex solid, or -1
