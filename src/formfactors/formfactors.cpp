@@ -65,7 +65,11 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
   double max_point_sum = 0.0;
 
   std::vector<GroupedShaftCuller> grouped_cullers;
-  if (vis) grouped_cullers.assign(size_t(omp_get_max_threads()), GroupedShaftCuller(vis->culler(), mesh));
+  std::vector<PointVisibility> point_visibility;  // one-point rules: visibility from the point (see below)
+  if (vis) {
+    grouped_cullers.assign(size_t(omp_get_max_threads()), GroupedShaftCuller(vis->culler(), mesh));
+    for (int t = 0; t < omp_get_max_threads(); ++t) point_visibility.emplace_back(*vis, mesh);
+  }
 
 #pragma omp parallel for schedule(dynamic, 4) \
     reduction(+ : evaluated, backfacing, tested, culled, occluded, rays, above, rescaled, fixed_rule, gauss, adaptive, kernels, exact_rectangles) \
@@ -84,14 +88,13 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
     std::vector<int> occluders;
     // Shaft culling in a hierarchy (face, tile, patch; visibility.h); one per thread, reused across rows.
     GroupedShaftCuller* grouped = vis ? &grouped_cullers[size_t(omp_get_thread_num())] : nullptr;
-    // With a one-point rule and no per-pair rule, visibility is taken from that point alone: cull
-    // the point's shafts, narrower and cheaper than the patch's, and tell point_to_patch() they
-    // are already the narrow ones.
+    // With a one-point rule and no per-pair rule, visibility is taken from that point alone
+    // (PointVisibility: the point's shafts, narrower than the patch's, and in exact mode one
+    // clipping per tile of patches rather than per patch).
     const bool point_shafts = !per_pair && nq == 1;
-    if (grouped) {
-      if (point_shafts) grouped->set_receiver(&rule[0].point, 1);
-      else grouped->set_receiver(ri, pi.corner_count);
-    }
+    PointVisibility* from_point = vis && point_shafts ? &point_visibility[size_t(omp_get_thread_num())] : nullptr;
+    if (from_point) from_point->set_receiver(Receiver{rule[0].point, pi.normal});
+    else if (grouped) grouped->set_receiver(ri, pi.corner_count);
     std::vector<double> row(n, 0.0);  // F_i,· before it is stored
     // Lambert's kernel from each receiver point to every patch (nq × n), batched, on first need.
     std::vector<double> kernel;
@@ -174,7 +177,19 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
       }
       ++evaluated;
       double f = f0;
-      if (vis && f0 > 0.0) {
+      if (from_point && f0 > 0.0) {
+        ++tested;
+        bool unshadowed = true;
+        const uint64_t stream = pair_stream(options.seed, uint64_t(i), uint64_t(j));
+        const double v = from_point->visible(j, sj, pj.corner_count, pj.normal, unoccluded[0], options.rays,
+                                             pair_stream(stream, 0, 0), rays, unshadowed);
+        if (unshadowed) ++culled;
+        if (rays_mode && !unshadowed) ray_part[size_t(j)] = v;
+        unoccluded[0] = v;
+        f = rule[0].weight * v;
+        if (f == 0.0) ++occluded;
+        if (f > f0) ++above;
+      } else if (vis && f0 > 0.0) {
         if (!shaft_known) {
           ++tested;
           grouped->occluders(j, sj, pj.corner_count, occluders);
@@ -187,7 +202,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
           for (int q = 0; q < nq; ++q) {
             const double v = vis->point_to_patch(Receiver{rule[q].point, pi.normal}, sj, pj.corner_count, pj.normal,
                                                  unoccluded[q], occluders, options.rays,
-                                                 pair_stream(stream, uint64_t(q), 0), rays, point_shafts);
+                                                 pair_stream(stream, uint64_t(q), 0), rays);
             if (rays_mode) ray_part[size_t(q) * n + j] = v;
             unoccluded[q] = v;  // now the visible factor
             f += rule[q].weight * v;

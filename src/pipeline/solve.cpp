@@ -93,17 +93,18 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
   long long evaluated = 0, rays = 0, tested = 0, culled = 0;
   // Every patch as one SIMD batch: a point's kernel to all patches in one call (lambert_batch.h).
   const PolygonBatch sources = patch_batch(mesh);
-  // Shaft culling in a hierarchy (face, tile, patch; visibility.h): one culler per thread.
-  std::vector<GroupedShaftCuller> grouped_cullers;
-  if (vis) grouped_cullers.assign(size_t(omp_get_max_threads()), GroupedShaftCuller(vis->culler(), mesh));
+  // Visibility from each point (visibility.h: culling by face, tile and patch; exact clipping per tile): one per thread.
+  std::vector<PointVisibility> point_visibility;
+  if (vis)
+    for (int t = 0; t < omp_get_max_threads(); ++t) point_visibility.emplace_back(*vis, mesh);
 #pragma omp parallel for schedule(dynamic, 16) reduction(+ : evaluated, rays, tested, culled)
   for (int o = 0; o < np; ++o) {
     const OutputPoint& x = r.points[o];
     Eigen::RowVector3d h = Eigen::RowVector3d::Zero();
     Vec3 src[4];
-    std::vector<int> occluders;
-    bool receiver_set = false;  // the grouped culler's receiver is this point (set on first need)
     const Receiver receiver{x.position, x.normal, x.approach};
+    PointVisibility* from_point = vis ? &point_visibility[size_t(omp_get_thread_num())] : nullptr;
+    if (from_point) from_point->set_receiver(receiver);
     thread_local std::vector<double> kernel;
     kernel.resize(mesh.size());
     lambert_form_factors(receiver, sources, 0, mesh.size(), kernel.data());
@@ -115,16 +116,13 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
       for (int k = 0; k < pj.corner_count; ++k) above = std::max(above, x.normal.dot(mesh.points[pj.corners[k]] - x.position));
       if (above <= tol || pj.normal.dot(x.position - pj.centroid) < -tol) continue;
       ++evaluated;
-      if (f > 0.0 && vis) {
+      if (f > 0.0 && from_point) {
         mesh.polygon(j, src);
         ++tested;
-        GroupedShaftCuller& grouped = grouped_cullers[size_t(omp_get_thread_num())];
-        if (!receiver_set) grouped.set_receiver(&x.position, 1), receiver_set = true;
-        grouped.occluders(j, src, pj.corner_count, occluders);
-        if (occluders.empty()) ++culled;
-        else f = vis->point_to_patch(receiver, src, pj.corner_count, pj.normal, f, occluders, opt.rays,
-                                     pair_stream(opt.seed ^ 0x5eedULL, uint64_t(o), uint64_t(j)), rays,
-                                     /*narrow=*/true);  // culled from the point itself
+        bool unshadowed = true;
+        f = from_point->visible(j, src, pj.corner_count, pj.normal, f, opt.rays,
+                                pair_stream(opt.seed ^ 0x5eedULL, uint64_t(o), uint64_t(j)), rays, unshadowed);
+        culled += unshadowed;
       }
       h += f * r.radiosity.row(j);
     }

@@ -331,16 +331,17 @@ ViewFactorMatrix point_view_factors(const std::vector<SurfacePoint>& points, con
   const int np = static_cast<int>(points.size());
   ViewFactorMatrix out = ViewFactorMatrix::Zero(np, agg.size());
   const double tol = plane_tolerance(mesh);
-  // Shaft culling in a hierarchy (face, tile, patch; visibility.h): one culler per thread.
-  std::vector<GroupedShaftCuller> grouped_cullers;
-  if (vis) grouped_cullers.assign(size_t(omp_get_max_threads()), GroupedShaftCuller(vis->culler(), mesh));
+  // Visibility from each point (visibility.h: culling by face, tile and patch; exact clipping per tile): one per thread.
+  std::vector<PointVisibility> point_visibility;
+  if (vis)
+    for (int t = 0; t < omp_get_max_threads(); ++t) point_visibility.emplace_back(*vis, mesh);
 #pragma omp parallel for schedule(dynamic, 4)
   for (int o = 0; o < np; ++o) {
     const SurfacePoint& x = points[static_cast<size_t>(o)];
     Vec3 src[4];
-    std::vector<int> occluders;
-    bool receiver_set = false;  // the grouped culler's receiver is this point (set on first need)
     long long rays = 0;
+    PointVisibility* from_point = vis ? &point_visibility[size_t(omp_get_thread_num())] : nullptr;
+    if (from_point) from_point->set_receiver(Receiver{x.position, x.normal});
     for (int j = 0; j < mesh.size(); ++j) {
       const Patch& pj = mesh.patches[j];
       // One-sided: the patch must rise above the point's plane and face the point.
@@ -351,14 +352,10 @@ ViewFactorMatrix point_view_factors(const std::vector<SurfacePoint>& points, con
       const Receiver receiver{x.position, x.normal};
       // Lambert's closed form, kernels/lambert.h (Stark 2000 = seed 002 eq. 3).
       double f = lambert_form_factor(receiver, src, pj.corner_count);
-      if (f > 0.0 && vis) {
-        GroupedShaftCuller& grouped = grouped_cullers[size_t(omp_get_thread_num())];
-        if (!receiver_set) grouped.set_receiver(&x.position, 1), receiver_set = true;
-        grouped.occluders(j, src, pj.corner_count, occluders);
-        if (!occluders.empty())
-          f = vis->point_to_patch(receiver, src, pj.corner_count, pj.normal, f, occluders, opt.rays,
-                                  pair_stream(opt.seed ^ 0x9017ULL, uint64_t(o), uint64_t(j)), rays,
-                                     /*narrow=*/true);  // culled from the point itself
+      if (f > 0.0 && from_point) {
+        bool unshadowed = true;
+        f = from_point->visible(j, src, pj.corner_count, pj.normal, f, opt.rays,
+                                pair_stream(opt.seed ^ 0x9017ULL, uint64_t(o), uint64_t(j)), rays, unshadowed);
       }
       out(o, agg.of_patch[j]) += f;
     }

@@ -649,6 +649,7 @@ class PiecePool {
   size_t size() const { return size_; }
   bool empty() const { return size_ == 0; }
   Polygon& operator[](size_t i) { return store_[i]; }
+  const Polygon& operator[](size_t i) const { return store_[i]; }
   Polygon& push() {
     if (size_ == store_.size()) store_.emplace_back();
     return store_[size_++];
@@ -663,28 +664,19 @@ class PiecePool {
   size_t size_ = 0;
 };
 
-}  // namespace
-
-double exact_visible_form_factor(const Receiver& receiver, const Vec3* source, int n,
-                                 const std::vector<Polygon>& faces, const std::vector<int>& which,
-                                 const std::vector<Vec3>* normals) {
-  const Vec3& x = receiver.point;
-  // Work relative to x: every wedge plane then passes through the origin.
-  // Per-thread scratch: this runs once per occluded pair, and allocation was a tenth of its cost.
-  thread_local PiecePool pieces, next;
+// Subtracts from `pieces` (convex polygons relative to x, at most `scale` from it) the shadow
+// volumes of faces[which] seen from x: what is left is the part of them x sees. `shadows`
+// (optional) receives the hidden parts; they are disjoint, and with what is left they partition
+// the input. Returns true when any face cut or hid a piece (false: the pieces are unchanged).
+bool subtract_shadows(const Vec3& x, double scale, const std::vector<Polygon>& faces, const std::vector<int>& which,
+                      const std::vector<Vec3>* normals, PiecePool& pieces, PiecePool* shadows) {
+  thread_local PiecePool next;
   thread_local std::vector<Plane> volume;  // here m·y >= d is inside the shadow volume
   thread_local std::vector<double> s;
   thread_local Polygon inside, outside, cur, wr;
-  pieces.clear();
-  Polygon& src = pieces.push();
-  src.resize(size_t(n));
-  double scale = 0.0;
-  for (int k = 0; k < n; ++k) {
-    src[size_t(k)] = source[k] - x;
-    scale = std::max(scale, src[size_t(k)].norm());
-  }
   bool cut = false;
   for (int f : which) {
+    if (pieces.empty()) break;
     const Polygon& w = faces[f];
     const int wn = static_cast<int>(w.size());
     double wscale = scale;
@@ -721,35 +713,60 @@ double exact_visible_form_factor(const Receiver& receiver, const Vec3* source, i
     // but outside 2, ... are visible; what lies inside every plane is in W's shadow.
     next.clear();
     for (size_t pi = 0; pi < pieces.size(); ++pi) {
-      cur = pieces[pi];
+      // The piece itself until a plane cuts it, then what is left inside (in `cur`). Pieces are
+      // moved, not copied, into `next`: `pieces` is replaced by it.
+      Polygon* rest = &pieces[pi];
       bool shadowed = true;
       for (const Plane& p : volume) {
-        s.resize(cur.size());
+        s.resize(rest->size());
         bool all_out = true, all_in = true;
-        for (size_t k = 0; k < cur.size(); ++k) {
-          s[k] = p.m.dot(cur[k]) - p.d;
+        for (size_t k = 0; k < rest->size(); ++k) {
+          s[k] = p.m.dot((*rest)[k]) - p.d;
           all_out = all_out && s[k] <= eps;
           all_in = all_in && s[k] >= -eps;
         }
         if (all_out) {  // on or outside this plane (a coplanar piece counts as outside): visible
-          next.push() = cur;
+          next.push().swap(*rest);
           shadowed = false;
           break;
         }
         if (all_in) continue;
         cut = true;
-        clip_keep(cur, s, -1, outside);
-        if (!outside.empty()) next.push() = outside;
-        clip_keep(cur, s, +1, inside);
+        clip_keep(*rest, s, -1, outside);
+        if (!outside.empty()) next.push().swap(outside);
+        clip_keep(*rest, s, +1, inside);
         cur.swap(inside);
+        rest = &cur;
         if (cur.empty()) { shadowed = false; break; }
       }
-      if (shadowed) cut = true;
+      if (shadowed) {
+        cut = true;
+        if (shadows) shadows->push().swap(*rest);
+      }
     }
     swap(pieces, next);
-    if (pieces.empty()) return 0.0;
   }
-  if (!cut) return lambert_form_factor(receiver, source, n);
+  return cut;
+}
+
+}  // namespace
+
+double exact_visible_form_factor(const Receiver& receiver, const Vec3* source, int n,
+                                 const std::vector<Polygon>& faces, const std::vector<int>& which,
+                                 const std::vector<Vec3>* normals) {
+  const Vec3& x = receiver.point;
+  // Work relative to x: every wedge plane then passes through the origin.
+  // Per-thread scratch: this runs once per occluded pair, and allocation was a tenth of its cost.
+  thread_local PiecePool pieces;
+  pieces.clear();
+  Polygon& src = pieces.push();
+  src.resize(size_t(n));
+  double scale = 0.0;
+  for (int k = 0; k < n; ++k) {
+    src[size_t(k)] = source[k] - x;
+    scale = std::max(scale, src[size_t(k)].norm());
+  }
+  if (!subtract_shadows(x, scale, faces, which, normals, pieces, nullptr)) return lambert_form_factor(receiver, source, n);
   // Lambert's formula is additive over a partition of the source (an integral over directions).
   const Receiver at_origin{Vec3::Zero(), receiver.normal, receiver.approach};
   double f = 0.0;
@@ -787,6 +804,197 @@ double Visibility::point_to_patch(const Receiver& x, const Vec3* source, int n, 
   const double v = rays_->point_to_patch(start, x.normal, source, n, source_normal, rays, stream, &used);
   rays_cast += used;
   return unoccluded * v;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+int GroupedShaftCuller::tile_of(int patch) const {
+  return patch >= 0 && patch < static_cast<int>(tile_of_patch_.size()) ? tile_of_patch_[size_t(patch)] : -1;
+}
+
+namespace {
+
+// The part of convex polygon `in` inside every half-space m_k·y >= d_k of `planes`, with
+// vertices within eps of a plane counted as on it: `in` itself when no plane cuts it, else
+// `work` holding the part, or null when nothing of positive width is left.
+const Polygon* clip_to_planes(const Polygon& in, const Plane* planes, int count, double eps, Polygon& work) {
+  thread_local Polygon tmp;
+  thread_local std::vector<double> s;
+  const Polygon* out = &in;
+  for (int p = 0; p < count; ++p) {
+    s.resize(out->size());
+    bool all_in = true, all_out = true;
+    for (size_t k = 0; k < out->size(); ++k) {
+      s[k] = planes[p].m.dot((*out)[k]) - planes[p].d;
+      all_in = all_in && s[k] >= -eps;
+      all_out = all_out && s[k] <= eps;
+    }
+    if (all_in) continue;
+    if (all_out) return nullptr;
+    clip_keep(*out, s, +1, tmp);
+    work.swap(tmp);
+    out = &work;
+    if (work.empty()) return nullptr;
+  }
+  return out;
+}
+
+}  // namespace
+
+struct PointVisibility::Impl {
+  // One tile's clipping from the current point: the visible and the hidden pieces (relative to
+  // the point) and their bounding boxes.
+  struct TileClip {
+    long long stamp = -1;
+    bool cut = false;  // false: no face shadows any of the tile
+    PiecePool visible, hidden;
+    std::vector<Eigen::AlignedBox3d> box;  // per piece, visible ones first, then hidden
+    Vec3 normal;                           // the tile's unit normal
+    double eps = 0.0;
+  };
+  const Visibility* vis;
+  GroupedShaftCuller grouped;
+  Receiver x;
+  bool receiver_set = false;
+  long long generation = 0;
+  std::vector<TileClip> tiles;
+  std::vector<int> occluders, casting;
+
+  Impl(const Visibility& v, const PatchMesh& mesh) : vis(&v), grouped(v.culler(), mesh) {
+    tiles.resize(size_t(grouped.tile_count()));
+  }
+
+  // Appends the boxes of `pieces` to c, grown by `margin`.
+  static void add_boxes(const PiecePool& pieces, double margin, TileClip& c) {
+    for (size_t k = 0; k < pieces.size(); ++k) {
+      Eigen::AlignedBox3d b;
+      for (const Vec3& y : pieces[k]) b.extend(y);
+      b.min().array() -= margin;
+      b.max().array() += margin;
+      c.box.push_back(b);
+    }
+  }
+
+  // The tile's clipping from x, done on first need per point.
+  TileClip& clip(int t) {
+    TileClip& c = tiles[size_t(t)];
+    if (c.stamp == generation) return c;
+    c.stamp = generation;
+    c.visible.clear();
+    c.hidden.clear();
+    if (!receiver_set) grouped.set_receiver(&x.point, 1), receiver_set = true;
+    casting = grouped.tile_occluders(t);
+    vis->culler().drop_hidden_faces(x.point, casting);
+    Polygon& rect = c.visible.push();
+    rect.resize(4);
+    double scale = 0.0;
+    for (int k = 0; k < 4; ++k) {
+      rect[size_t(k)] = grouped.tile_corners(t)[k] - x.point;
+      scale = std::max(scale, rect[size_t(k)].norm());
+    }
+    c.eps = 1e-12 * scale;
+    c.normal = newell_vector(rect.data(), 4).normalized();  // before `rect` is clipped away
+    c.cut = !casting.empty() && subtract_shadows(x.point, scale, vis->culler().faces(), casting,
+                                                 &vis->culler().normals(), c.visible, &c.hidden);
+    c.box.clear();
+    if (c.cut) {
+      // Boxes grown by what a flat tile allows out of its plane (GroupedShaftCuller), so a patch
+      // a hair off the tile's plane still meets the pieces over it.
+      const double margin = c.eps + 4.0 * vis->culler().tolerance();
+      add_boxes(c.visible, margin, c);
+      add_boxes(c.hidden, margin, c);
+    }
+    return c;
+  }
+};
+
+PointVisibility::PointVisibility(const Visibility& vis, const PatchMesh& mesh)
+    : impl_(std::make_unique<Impl>(vis, mesh)) {}
+PointVisibility::~PointVisibility() = default;
+PointVisibility::PointVisibility(PointVisibility&&) noexcept = default;
+PointVisibility& PointVisibility::operator=(PointVisibility&&) noexcept = default;
+
+void PointVisibility::set_receiver(const Receiver& x) {
+  impl_->x = x;
+  impl_->receiver_set = false;  // the culler's receiver is set on first need
+  ++impl_->generation;
+}
+
+double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& normal, double unoccluded, int rays,
+                                uint64_t stream, long long& rays_cast, bool& unshadowed) {
+  Impl& m = *impl_;
+  unshadowed = true;
+  if (unoccluded <= 0.0) return unoccluded;
+  const int t = m.grouped.tile_of(patch);
+  if (!m.receiver_set) m.grouped.set_receiver(&m.x.point, 1), m.receiver_set = true;
+  // Culling and clipping of this patch alone.
+  auto by_patch = [&]() {
+    m.grouped.occluders(patch, b, nb, m.occluders);
+    if (m.occluders.empty()) return unoccluded;
+    unshadowed = false;
+    return m.vis->point_to_patch(m.x, b, nb, normal, unoccluded, m.occluders, rays, stream, rays_cast,
+                                 /*narrow=*/true);  // culled from the point itself
+  };
+  if (m.vis->method() == VisibilityMethod::Rays || t < 0 || m.grouped.tile_corner_count(t) != 4 || nb < 3 || nb > 4)
+    return by_patch();
+  // The fast exit first: a tile with no occluders in its shaft needs no clipping at all.
+  if (m.grouped.tile_occluders(t).empty()) return unoccluded;
+  Impl::TileClip& c = m.clip(t);
+  if (!c.cut) return unoccluded;
+  // The patch relative to x, its box, and its edges' inward planes (each contains the edge and
+  // the patch's normal; m·y >= d inside). Pieces are cut to the patch by these planes: a patch's
+  // edges are well shaped, while a piece may have an edge of almost no length, whose direction
+  // rounding leaves undefined.
+  thread_local Polygon rel, part, work;
+  rel.resize(size_t(nb));
+  Eigen::AlignedBox3d box;
+  for (int k = 0; k < nb; ++k) box.extend(rel[size_t(k)] = b[k] - m.x.point);
+  const Vec3 n = newell_vector(rel.data(), nb).normalized();
+  if (!(std::abs(n.dot(c.normal)) > 0.5)) return by_patch();  // not in the tile's plane (a degenerate patch)
+  Plane edges[4];
+  int edge_count = 0;
+  for (int k = 0; k < nb; ++k) {
+    Vec3 e = n.cross(rel[size_t((k + 1) % nb)] - rel[size_t(k)]);  // inward for a counter-clockwise patch
+    const double len = e.norm();
+    if (!(len > c.eps)) continue;
+    e /= len;
+    edges[edge_count++] = {e, e.dot(rel[size_t(k)])};
+  }
+  const size_t visible_count = c.visible.size();
+  auto piece = [&](size_t k) -> const Polygon& { return k < visible_count ? c.visible[k] : c.hidden[k - visible_count]; };
+  // Lambert's formula is additive over a partition of the patch. Parts are moved along the
+  // tile's normal into the patch's own plane (they differ by rounding on a flat face, by at most
+  // the flatness tolerance on a nearly flat one).
+  const Receiver at_origin{Vec3::Zero(), m.x.normal, m.x.approach};
+  const double offset = n.dot(rel[0]), along = n.dot(c.normal);
+  auto part_factor = [&](const Polygon* q) {
+    part = *q;
+    for (Vec3& y : part) y -= ((n.dot(y) - offset) / along) * c.normal;
+    return lambert_form_factor(at_origin, part.data(), static_cast<int>(part.size()));
+  };
+  // The hidden parts of the patch first: none of positive area, and the patch is unshadowed.
+  bool overlaps = false;
+  double hidden = 0.0;
+  for (size_t k = visible_count; k < c.box.size(); ++k) {
+    if (!c.box[k].intersects(box)) continue;
+    const Polygon* q = clip_to_planes(piece(k), edges, edge_count, c.eps, work);
+    if (!q) continue;
+    overlaps = true;
+    hidden += part_factor(q);
+  }
+  if (!overlaps) return unoccluded;
+  unshadowed = false;
+  // At most half hidden: the visible factor is the unoccluded one less the hidden parts', with
+  // an error of a few ulp of the result. Otherwise sum the visible parts, which keeps the
+  // relative accuracy of a factor far smaller than the unoccluded one.
+  if (hidden <= 0.5 * unoccluded) return std::clamp(unoccluded - hidden, 0.0, unoccluded);
+  double f = 0.0;
+  for (size_t k = 0; k < visible_count; ++k) {
+    if (!c.box[k].intersects(box)) continue;
+    const Polygon* q = clip_to_planes(piece(k), edges, edge_count, c.eps, work);
+    if (q) f += part_factor(q);
+  }
+  return std::min(unoccluded, std::clamp(f, 0.0, 1.0));
 }
 
 }  // namespace photometria

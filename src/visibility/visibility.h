@@ -119,6 +119,15 @@ class GroupedShaftCuller {
   // The occluders of the shaft of the receiver and patch `patch` of the mesh (corners b, nb).
   void occluders(int patch, const Vec3* b, int nb, std::vector<int>& out);
 
+  // The tile of a patch (-1 for a patch of no scene face), and per tile: its corners (4 for a
+  // rectangle in a flat face's plane, containing its patches; 8 for a box) and the occluders of
+  // the receiver–tile shaft.
+  int tile_of(int patch) const;
+  int tile_corner_count(int tile) const { return tiles_[size_t(tile)].corner_count; }
+  const Vec3* tile_corners(int tile) const { return tiles_[size_t(tile)].corners; }
+  const std::vector<int>& tile_occluders(int tile) { return group(culler_->face_count() + tile); }
+  int tile_count() const { return static_cast<int>(tiles_.size()); }
+
  private:
   struct Tile {
     int face = 0;
@@ -184,6 +193,40 @@ class RayVisibility {
 };
 
 enum class VisibilityMethod { Rays, Exact };
+
+class Visibility;
+
+// Visible form factors from one point to the patches of a mesh: what the centroid rule's fill,
+// the vertex gather and the point view factors ask for, patch after patch. Shaft culling is
+// GroupedShaftCuller's. In exact mode, the rectangle of each tile whose shaft holds occluders
+// is clipped against their shadow volumes once per point (exact_visible_form_factor's
+// subtraction), not each of its up to 16 patches: a patch that no hidden piece overlaps keeps
+// its unoccluded factor, and any other sums Lambert's closed form over its intersections with
+// the visible pieces (the formula is additive over a partition). The result equals
+// exact_visible_form_factor(x, patch, occluders of the pair) up to rounding (the pieces are cut
+// along other lines; tests/test_visibility_scenes.cpp). Patches of no tile or of a box tile (a
+// face that is not flat), and ray mode, take Visibility::point_to_patch.
+// One per thread; not thread-safe.
+class PointVisibility {
+ public:
+  PointVisibility(const Visibility& vis, const PatchMesh& mesh);
+  ~PointVisibility();
+  PointVisibility(PointVisibility&&) noexcept;
+  PointVisibility& operator=(PointVisibility&&) noexcept;
+
+  // The point of the following queries (a surface point with its normal and approach).
+  void set_receiver(const Receiver& x);
+  // F_vis(dA_x -> P) for patch `patch` of the mesh (corners b, nb; unit normal), given
+  // `unoccluded` = F(dA_x -> P). `unshadowed` is set when no face shadows any of it (the
+  // result is then `unoccluded` itself). Ray mode casts `rays` segments seeded by `stream`
+  // (added to rays_cast); exact mode ignores both.
+  double visible(int patch, const Vec3* b, int nb, const Vec3& normal, double unoccluded, int rays, uint64_t stream,
+                 long long& rays_cast, bool& unshadowed);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 // What the form-factor fill and the vertex gather use: the culler plus one of the two methods.
 class Visibility {
