@@ -3,6 +3,7 @@
 #include <embree3/rtcore.h>
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 #include <map>
 #include <numeric>
@@ -675,7 +676,17 @@ bool subtract_shadows(const Vec3& x, double scale, const std::vector<Polygon>& f
   thread_local std::vector<double> s;
   thread_local Polygon inside, outside, cur, wr;
   bool cut = false;
+  // Nearest occluders first: their shadows are the widest, and what they hide is not cut again
+  // by the others.
+  thread_local std::vector<std::pair<double, int>> order;
+  order.clear();
   for (int f : which) {
+    double d = std::numeric_limits<double>::infinity();
+    for (const Vec3& v : faces[size_t(f)]) d = std::min(d, (v - x).squaredNorm());
+    order.emplace_back(d, f);
+  }
+  std::sort(order.begin(), order.end());
+  for (const auto& [distance, f] : order) {
     if (pieces.empty()) break;
     const Polygon& w = faces[f];
     const int wn = static_cast<int>(w.size());
@@ -972,7 +983,14 @@ double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& no
     for (Vec3& y : part) y -= ((n.dot(y) - offset) / along) * c.normal;
     return lambert_form_factor(at_origin, part.data(), static_cast<int>(part.size()));
   };
-  // The hidden parts of the patch first: none of positive area, and the patch is unshadowed.
+  // No visible piece near the patch: all of it is hidden (the pieces cover the tile).
+  bool near_visible = false;
+  for (size_t k = 0; k < visible_count && !near_visible; ++k) near_visible = c.box[k].intersects(box);
+  if (!near_visible) {
+    unshadowed = false;
+    return 0.0;
+  }
+  // The hidden parts of the patch: none of positive area, and the patch is unshadowed.
   bool overlaps = false;
   double hidden = 0.0;
   for (size_t k = visible_count; k < c.box.size(); ++k) {
