@@ -49,7 +49,7 @@ struct SolveArgs {
   std::optional<std::string> visibility;
   std::optional<std::string> solver;
   std::optional<std::string> max_memory;
-  std::string matrix = "auto", matrix_precision = "double";
+  std::string matrix = "auto", matrix_precision = "auto";
   bool flip_normals = false, keep_orientation = false;
   int threads = 0;
   uint64_t seed = 1;
@@ -168,7 +168,7 @@ Command add_solve_command(CLI::App& app) {
   solve->add_option("--emission", s.emission, "Default emission (W/m²) for formats without materials: e or r,g,b");
   solve->add_option("--max-memory", s.max_memory, "Refuse to solve when the memory estimate exceeds this: 512M, 2G, ... (default: MemAvailable)");
   solve->add_option("--matrix", s.matrix, "Form-factor storage: auto | dense | sparse (default auto: the smaller for the scene)");
-  solve->add_option("--matrix-precision", s.matrix_precision, "Form-factor entries: double | float (default double; float halves the matrix)");
+  solve->add_option("--matrix-precision", s.matrix_precision, "Form-factor entries: auto | double | float (default auto: double unless only float fits the memory limit; float halves the matrix)");
   solve->add_flag("--flip-normals", s.flip_normals, "Reverse every face's winding (inside-out exports)");
   solve->add_flag("--keep-orientation", s.keep_orientation, "Do not flip faces wound against their closed surface");
   solve->add_flag("--json", s.json, "Print a machine-readable summary on stdout");

@@ -26,7 +26,7 @@ namespace {
 
 struct ViewFactorArgs {
   std::string scene, output, by = "group", format = "csv", enforce = "none", visibility = "auto", points,
-                             points_output, max_memory, matrix = "auto", matrix_precision = "double";
+                             points_output, max_memory, matrix = "auto", matrix_precision = "auto";
   double threshold = 0.0, max_edge = 0.0, accuracy = 1e-7;
   int rays = 576, threads = 0;
   bool json = false, flip_normals = false;
@@ -243,7 +243,7 @@ Command add_viewfactors_command(CLI::App& app) {
   sub->add_option("--max-memory", a->max_memory,
                   "Refuse before the fill when the memory estimate exceeds this: 512M, 2G, ... (default: MemAvailable)");
   sub->add_option("--matrix", a->matrix, "Patch form-factor storage: auto | dense | sparse (default auto: the smaller for the scene)");
-  sub->add_option("--matrix-precision", a->matrix_precision, "Patch form-factor entries: double | float (default double; float halves the matrix)");
+  sub->add_option("--matrix-precision", a->matrix_precision, "Patch form-factor entries: auto | double | float (default auto: double unless only float fits the memory limit; float halves the matrix)");
   sub->add_option("--threads", a->threads, "Threads for the fill (default: all cores)");
   sub->add_flag("--flip-normals", a->flip_normals, "Reverse every face (inside-out exports)");
   sub->add_flag("--json", a->json, "Print a machine-readable summary on stdout");

@@ -238,6 +238,50 @@ TEST_F(BadInput, MemoryEstimateAboveTheLimitIsRefused) {
   expect_failure(obj, 1, {"--max-memory", "'lots'"}, "--max-memory lots");
 }
 
+// Between the float and the double estimate, `--matrix-precision auto` (the default) stores the
+// factors in float and says why; `double` asked for is refused.
+TEST_F(BadInput, FloatStorageWhenOnlyFloatFits) {
+  write("furnace.mtl", kFurnaceMtl);
+  const std::string obj = write("cube.obj", cube());
+  // N = 2400: 44 MiB dense double, 22 MiB dense float, plus the per-patch arrays (under 10 MiB).
+  const nlohmann::json s = solve_ok(obj, "--max-edge 0.05 --max-memory 40M");
+  EXPECT_EQ(s["matrix"]["storage"], "dense float");
+  const std::string reason = s["matrix"]["reason"];
+  EXPECT_NE(reason.find("float entries, because double"), std::string::npos) << reason;
+  EXPECT_NE(reason.find("would exceed --max-memory (40 MiB)"), std::string::npos) << reason;
+  EXPECT_LE(s["matrix"]["estimated_bytes"].get<double>(), 40.0 * 1048576);
+  EXPECT_DOUBLE_EQ(s["matrix"]["bytes"].get<double>(), 2400.0 * 2400 * 4);
+  fs::remove(path("out.vtu"));
+  expect_failure(obj, 1, {"(dense double form factors)", "--max-memory is 40 MiB"},
+                 "--max-edge 0.05 --max-memory 40M --matrix-precision double");
+  // With room to spare, auto is double.
+  EXPECT_EQ(solve_ok(obj, "--max-edge 0.05 --max-memory 1G")["matrix"]["storage"], "dense double");
+}
+
+TEST(StorageChoice, AutoPrecisionIsDoubleUnlessOnlyFloatFits) {
+  using namespace photometria;
+  const double n = 1000, dense_double = 8e6, dense_float = 4e6, rest = 1e5;
+  StorageChoice c = choose_storage(MatrixLayout::Auto, MatrixPrecision::Auto, n, n * (n - 1), rest, 1e9);
+  EXPECT_EQ(c.storage, "dense double");
+  EXPECT_TRUE(c.fits);
+  c = choose_storage(MatrixLayout::Auto, MatrixPrecision::Auto, n, n * (n - 1), rest, dense_double);
+  EXPECT_EQ(c.storage, "dense float");
+  EXPECT_DOUBLE_EQ(c.estimated_bytes, dense_float + rest);
+  EXPECT_TRUE(c.fits);
+  // Neither fits: double is kept (and refused by the caller), so the message names the default.
+  c = choose_storage(MatrixLayout::Auto, MatrixPrecision::Auto, n, n * (n - 1), rest, dense_float);
+  EXPECT_EQ(c.storage, "dense double");
+  EXPECT_FALSE(c.fits);
+  // Requested precisions are kept whatever the limit.
+  c = choose_storage(MatrixLayout::Dense, MatrixPrecision::Double, n, 0, rest, 1e6);
+  EXPECT_EQ(c.storage, "dense double");
+  EXPECT_FALSE(c.fits);
+  EXPECT_EQ(c.reason, "requested (--matrix dense)");
+  // Sparse when few pairs face each other, float on top when the limit needs it.
+  c = choose_storage(MatrixLayout::Auto, MatrixPrecision::Auto, n, 0.1 * n * n, rest, 0.1 * n * n * 10);
+  EXPECT_EQ(c.storage, "sparse float");
+}
+
 // ----- the memory estimate in the summary -------------------------------------------------------
 
 TEST_F(BadInput, MemoryEstimateIsInTheSummary) {

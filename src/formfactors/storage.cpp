@@ -17,7 +17,12 @@ const char* layout_name(MatrixLayout layout) {
 }
 
 const char* precision_name(MatrixPrecision precision) {
-  return precision == MatrixPrecision::Double ? "double" : "float";
+  switch (precision) {
+    case MatrixPrecision::Double: return "double";
+    case MatrixPrecision::Float: return "float";
+    case MatrixPrecision::Auto: return "auto";
+  }
+  return "?";
 }
 
 MatrixLayout parse_layout(const std::string& name) {
@@ -30,7 +35,8 @@ MatrixLayout parse_layout(const std::string& name) {
 MatrixPrecision parse_precision(const std::string& name) {
   if (name == "double") return MatrixPrecision::Double;
   if (name == "float") return MatrixPrecision::Float;
-  throw Error(ErrorKind::BadInput, "unknown matrix precision '" + name + "' (expected double or float)");
+  if (name == "auto") return MatrixPrecision::Auto;
+  throw Error(ErrorKind::BadInput, "unknown matrix precision '" + name + "' (expected auto, double or float)");
 }
 
 double matrix_bytes(MatrixLayout layout, MatrixPrecision precision, double n, double nonzeros) {
@@ -50,6 +56,7 @@ MatrixLayout choose_layout(MatrixLayout requested, MatrixPrecision precision, do
 FormFactors::FormFactors(int n, MatrixLayout layout, MatrixPrecision precision)
     : n_(n), layout_(layout), precision_(precision) {
   if (layout == MatrixLayout::Auto) throw std::logic_error("FormFactors: resolve the layout before allocating");
+  if (precision == MatrixPrecision::Auto) throw std::logic_error("FormFactors: resolve the precision before allocating");
   if (layout == MatrixLayout::Dense) {
     if (precision == MatrixPrecision::Double)
       dense_double_ = FormFactorMatrix::Zero(n, n);

@@ -25,15 +25,18 @@ namespace photometria {
 using FormFactorMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
 enum class MatrixLayout { Auto, Dense, Sparse };
-enum class MatrixPrecision { Double, Float };
+// Auto (a request only, resolved before the fill: pipeline/memory.h choose_storage): double
+// unless only float fits the memory limit.
+enum class MatrixPrecision { Double, Float, Auto };
 
-// "auto" | "dense" | "sparse", "double" | "float"; parse_* throw Error(BadInput) naming the value.
+// "auto" | "dense" | "sparse", "auto" | "double" | "float"; parse_* throw Error(BadInput) naming the value.
 const char* layout_name(MatrixLayout layout);
 const char* precision_name(MatrixPrecision precision);
 MatrixLayout parse_layout(const std::string& name);
 MatrixPrecision parse_precision(const std::string& name);
 
-// Bytes F takes for n patches with `nonzeros` non-zero entries in the given layout (not Auto).
+// Bytes F takes for n patches with `nonzeros` non-zero entries in the given layout and
+// precision (not Auto).
 double matrix_bytes(MatrixLayout layout, MatrixPrecision precision, double n, double nonzeros);
 
 // Auto resolved: the layout with the smaller matrix_bytes for the expected non-zero count.
@@ -42,7 +45,8 @@ MatrixLayout choose_layout(MatrixLayout requested, MatrixPrecision precision, do
 class FormFactors {
  public:
   FormFactors() = default;
-  // An n × n zero matrix in the given layout (Auto is not allowed here: resolve it first).
+  // An n × n zero matrix in the given layout and precision (Auto is not allowed here: resolve it
+  // first; std::logic_error).
   FormFactors(int n, MatrixLayout layout, MatrixPrecision precision);
   // Dense double, taking the matrix (implicit: tests and small tools build F directly).
   FormFactors(FormFactorMatrix dense);  // NOLINT(google-explicit-constructor)

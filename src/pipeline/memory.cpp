@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <iomanip>
 #include <random>
 #include <sstream>
 #include <vector>
@@ -63,6 +64,42 @@ MemoryEstimate estimate_memory(const PatchMesh& mesh, uint64_t seed) {
   e.dense_bytes = double(n) * double(n) * sizeof(double) + rest;
   e.sparse_bytes = double(e.nonzero_pairs) * (sizeof(double) + sizeof(int32_t)) + double(n + 1) * sizeof(int64_t) + rest;
   return e;
+}
+
+StorageChoice choose_storage(MatrixLayout layout, MatrixPrecision precision, double n, double nonzeros,
+                             double other_bytes, double max_memory_bytes) {
+  StorageChoice c;
+  c.limit_bytes = max_memory_bytes > 0 ? max_memory_bytes : available_memory_bytes();
+  c.limit_source = max_memory_bytes > 0 ? "--max-memory" : "MemAvailable";
+  auto fits = [&](MatrixPrecision p) {
+    const MatrixLayout l = choose_layout(layout, p, n, nonzeros);
+    return c.limit_bytes <= 0 || matrix_bytes(l, p, n, nonzeros) + other_bytes <= c.limit_bytes;
+  };
+  c.precision = precision;
+  if (precision == MatrixPrecision::Auto)
+    c.precision = fits(MatrixPrecision::Double) || !fits(MatrixPrecision::Float) ? MatrixPrecision::Double : MatrixPrecision::Float;
+  c.layout = choose_layout(layout, c.precision, n, nonzeros);
+  c.storage = std::string(layout_name(c.layout)) + " " + precision_name(c.precision);
+  std::ostringstream why;
+  if (layout != MatrixLayout::Auto)
+    why << "requested (--matrix " << layout_name(c.layout) << ")";
+  else
+    why << "auto: " << std::setprecision(3) << (n > 1 ? 100.0 * nonzeros / (n * (n - 1)) : 0.0)
+        << "% of pairs face each other, so " << layout_name(c.layout) << " is smaller";
+  if (precision == MatrixPrecision::Auto && c.precision == MatrixPrecision::Float)
+    why << "; float entries, because double (" << format_bytes(matrix_bytes(choose_layout(layout, MatrixPrecision::Double, n, nonzeros), MatrixPrecision::Double, n, nonzeros) + other_bytes)
+        << " in all) would exceed " << c.limit_source << " (" << format_bytes(c.limit_bytes) << ")";
+  c.reason = why.str();
+  c.matrix_bytes = matrix_bytes(c.layout, c.precision, n, nonzeros);
+  c.estimated_bytes = c.matrix_bytes + other_bytes;
+  c.fits = c.limit_bytes <= 0 || c.estimated_bytes <= c.limit_bytes;
+  return c;
+}
+
+std::string StorageChoice::limit_description() const {
+  return limit_source == "--max-memory"
+             ? "--max-memory is " + format_bytes(limit_bytes)
+             : "only " + format_bytes(limit_bytes) + " is available (MemAvailable; set --max-memory to override)";
 }
 
 double available_memory_bytes() {

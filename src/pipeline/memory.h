@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <string>
 
+#include "formfactors/storage.h"
 #include "patching/patching.h"
 
 namespace photometria {
@@ -29,6 +30,30 @@ struct MemoryEstimate {
 
 // Estimates both storages for `mesh`; `seed` makes the pair sampling repeatable.
 MemoryEstimate estimate_memory(const PatchMesh& mesh, uint64_t seed = 1);
+
+// The form-factor storage a run uses, chosen before the fill (the solve and `viewfactors` both).
+struct StorageChoice {
+  MatrixLayout layout = MatrixLayout::Dense;           // resolved: Dense or Sparse
+  MatrixPrecision precision = MatrixPrecision::Double;  // resolved: Double or Float
+  std::string storage;         // "dense double", "sparse float", ...
+  std::string reason;          // why, for the summary ("auto: 74.2% of pairs face each other, ...")
+  double matrix_bytes = 0.0;   // the matrix in that storage
+  double estimated_bytes = 0.0;  // matrix_bytes + other_bytes
+  double limit_bytes = 0.0;    // what it must fit in (0: unknown, no limit)
+  std::string limit_source;    // "--max-memory" or "MemAvailable"
+  bool fits = true;            // estimated_bytes <= limit_bytes (or no limit)
+  // For a refusal: "--max-memory is 2 GiB" or "only 1.2 GiB is available (MemAvailable; set
+  // --max-memory to override)".
+  std::string limit_description() const;
+};
+
+// Layout auto: the smaller of dense and sparse for `nonzeros` expected non-zero entries of an
+// n × n matrix (choose_layout). Precision auto: double, unless the matrix in double and
+// `other_bytes` would exceed the limit while float fits (DESIGN.md: everything double by
+// default, float storage said in the summary). The limit is `max_memory_bytes` when > 0, else
+// MemAvailable.
+StorageChoice choose_storage(MatrixLayout layout, MatrixPrecision precision, double n, double nonzeros,
+                             double other_bytes, double max_memory_bytes);
 
 // MemAvailable from /proc/meminfo, bytes; 0 when it cannot be read.
 double available_memory_bytes();

@@ -158,30 +158,22 @@ EnergyBalance energy_balance(const FormFactors& F, const ChannelMatrix& direct, 
   return e;
 }
 
-// Estimates the memory of the solve and refuses when the storage in use would not fit.
-// Picks the matrix layout from the estimate and refuses a run that cannot fit (memory.h).
-MatrixLayout check_memory(const PatchMesh& mesh, const SolveOptions& opt, SolveSummary& s) {
+// Estimates the memory of the solve, picks the matrix storage from it (memory.h choose_storage)
+// and refuses a run that cannot fit.
+StorageChoice check_memory(const PatchMesh& mesh, const SolveOptions& opt, SolveSummary& s) {
   s.memory = estimate_memory(mesh, opt.seed);
-  const double n = mesh.size(), nnz = double(s.memory.nonzero_pairs);
-  const MatrixLayout layout = choose_layout(opt.matrix_layout, opt.matrix_precision, n, nnz);
-  s.matrix_storage = std::string(layout_name(layout)) + " " + precision_name(opt.matrix_precision);
-  if (opt.matrix_layout != MatrixLayout::Auto) {
-    s.matrix_storage_reason = "requested (--matrix " + std::string(layout_name(layout)) + ")";
-  } else {
-    std::ostringstream why;
-    why << "auto: " << std::setprecision(3) << (n > 1 ? 100.0 * nnz / (n * (n - 1)) : 0.0)
-        << "% of pairs face each other, so " << layout_name(layout) << " is smaller";
-    s.matrix_storage_reason = why.str();
-  }
-  s.estimated_bytes = matrix_bytes(layout, opt.matrix_precision, n, nnz) + s.memory.per_patch_bytes * n;
-  s.memory_limit_bytes = opt.max_memory_bytes > 0 ? opt.max_memory_bytes : available_memory_bytes();
-  s.memory_limit_source = opt.max_memory_bytes > 0 ? "--max-memory" : "MemAvailable";
-  if (s.memory_limit_bytes <= 0 || s.estimated_bytes <= s.memory_limit_bytes) return layout;
-  const std::string limit = opt.max_memory_bytes > 0
-                                ? "--max-memory is " + format_bytes(s.memory_limit_bytes)
-                                : "only " + format_bytes(s.memory_limit_bytes) + " is available (MemAvailable; set --max-memory to override)";
-  throw_bad_input("needs " + format_bytes(s.estimated_bytes) + " for " + format_count(s.patches) + " patches (" +
-                  s.matrix_storage + " form factors) but " + limit + "; raise --max-edge or try --matrix-precision float");
+  const double n = mesh.size();
+  const StorageChoice c = choose_storage(opt.matrix_layout, opt.matrix_precision, n, double(s.memory.nonzero_pairs),
+                                         s.memory.per_patch_bytes * n, opt.max_memory_bytes);
+  s.matrix_storage = c.storage;
+  s.matrix_storage_reason = c.reason;
+  s.estimated_bytes = c.estimated_bytes;
+  s.memory_limit_bytes = c.limit_bytes;
+  s.memory_limit_source = c.limit_source;
+  if (c.fits) return c;
+  throw_bad_input("needs " + format_bytes(c.estimated_bytes) + " for " + format_count(s.patches) + " patches (" +
+                  c.storage + " form factors) but " + c.limit_description() + "; raise --max-edge" +
+                  (c.precision == MatrixPrecision::Double ? " or try --matrix-precision float" : ""));
 }
 
 }  // namespace
@@ -250,8 +242,9 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
   fill.progress = progress("form factors");
   s.quadrature = opt.quadrature;
   s.accuracy = opt.accuracy;
-  fill.layout = check_memory(r.mesh, opt, s);
-  fill.precision = opt.matrix_precision;
+  const StorageChoice storage = check_memory(r.mesh, opt, s);
+  fill.layout = storage.layout;
+  fill.precision = storage.precision;
   const FormFactors F = fill_form_factors(r.mesh, fill, s.fill);
   s.matrix_storage = F.description();
   s.matrix_bytes = F.bytes();

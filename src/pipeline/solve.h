@@ -40,10 +40,12 @@ struct SolveOptions {
   // Refuse (BadInput) before the form-factor fill when the estimated memory (pipeline/memory.h,
   // the storage actually used) exceeds this many bytes; 0 = MemAvailable from /proc/meminfo.
   double max_memory_bytes = 0.0;
-  // Form-factor storage (formfactors/storage.h): Auto = dense or sparse, whichever the estimated
-  // non-zero count makes smaller; float halves the matrix (entries rounded to 2^-24 relative).
+  // Form-factor storage (formfactors/storage.h, chosen by pipeline/memory.h choose_storage):
+  // layout Auto = dense or sparse, whichever the estimated non-zero count makes smaller;
+  // float halves the matrix (entries rounded to 2^-24 relative); precision Auto = double
+  // unless only float fits the memory limit (the summary says so).
   MatrixLayout matrix_layout = MatrixLayout::Auto;
-  MatrixPrecision matrix_precision = MatrixPrecision::Double;
+  MatrixPrecision matrix_precision = MatrixPrecision::Auto;
   std::function<void(const std::string& stage, double fraction)> progress;  // optional
 };
 

@@ -98,14 +98,14 @@ struct Case {
   PatchingOptions patching;
 };
 
-// The estimate solve_scene and compute_view_factors check (pipeline/solve.cpp check_memory,
-// viewfactors.h ViewFactorMemory), with the default options: the matrix in the layout `auto`
-// picks from the share of facing pairs, plus the per-patch arrays.
-double estimate_bytes(const PatchMesh& mesh) {
+// The estimate solve_scene and compute_view_factors check (pipeline/memory.h choose_storage),
+// with the default options: the matrix in the layout and precision `auto` picks for the memory
+// limit, plus the per-patch arrays.
+StorageChoice estimate_storage(const PatchMesh& mesh, double max_memory_bytes) {
   const MemoryEstimate e = estimate_memory(mesh, 1);
-  const double n = mesh.size(), nnz = double(e.nonzero_pairs);
-  const MatrixLayout layout = choose_layout(MatrixLayout::Auto, MatrixPrecision::Double, n, nnz);
-  return matrix_bytes(layout, MatrixPrecision::Double, n, nnz) + e.per_patch_bytes * n;
+  const double n = mesh.size();
+  return choose_storage(MatrixLayout::Auto, MatrixPrecision::Auto, n, double(e.nonzero_pairs), e.per_patch_bytes * n,
+                        max_memory_bytes);
 }
 
 void mark_skipped(BenchRow& row, const std::string& why, int threads) {
@@ -180,14 +180,13 @@ BenchRow run_case(const Case& c, const BenchOptions& opt) {
 
   const PatchMesh mesh = subdivide(*c.geometry, c.patching);
   row.patches = mesh.size();
-  row.estimated_bytes = estimate_bytes(mesh);
-  const double limit = opt.max_memory_bytes > 0 ? opt.max_memory_bytes : available_memory_bytes();
+  const StorageChoice storage = estimate_storage(mesh, opt.max_memory_bytes);
+  row.estimated_bytes = storage.estimated_bytes;
   if (opt.max_patches > 0 && row.patches > opt.max_patches) {
     row.skipped = format_count(row.patches) + " patches > --max-patches " + format_count(opt.max_patches);
-  } else if (limit > 0 && row.estimated_bytes > limit) {
-    row.skipped = "needs about " + format_bytes(row.estimated_bytes) + " but " +
-                  (opt.max_memory_bytes > 0 ? "--max-memory is " + format_bytes(limit)
-                                            : "only " + format_bytes(limit) + " is available (MemAvailable)");
+  } else if (!storage.fits) {
+    row.skipped = "needs about " + format_bytes(row.estimated_bytes) + " (" + storage.storage + ") but " +
+                  storage.limit_description();
   }
   if (!row.skipped.empty()) {
     mark_skipped(row, row.skipped, opt.threads);

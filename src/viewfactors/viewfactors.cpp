@@ -19,37 +19,27 @@ namespace photometria {
 
 namespace {
 
-// The memory estimate of viewfactors.h (ViewFactorMemory) and the refusal; returns the layout
-// of the patch matrix. The same rule and message as the solve's (pipeline/solve.cpp).
-MatrixLayout check_memory(const Scene& scene, const PatchMesh& mesh, const ViewFactorOptions& opt, ViewFactorMemory& m) {
+// The memory estimate of viewfactors.h (ViewFactorMemory), the storage chosen from it
+// (pipeline/memory.h choose_storage, as the solve does) and the refusal.
+StorageChoice check_memory(const Scene& scene, const PatchMesh& mesh, const ViewFactorOptions& opt, ViewFactorMemory& m) {
   m.patches = estimate_memory(mesh, opt.seed);
   m.surfaces = make_aggregation(scene, mesh, opt.level).size();
-  const double n = mesh.size(), nnz = double(m.patches.nonzero_pairs), g = m.surfaces;
-  const MatrixLayout layout = choose_layout(opt.matrix_layout, opt.matrix_precision, n, nnz);
-  m.storage = std::string(layout_name(layout)) + " " + precision_name(opt.matrix_precision);
-  if (opt.matrix_layout != MatrixLayout::Auto) {
-    m.storage_reason = "requested (--matrix " + std::string(layout_name(layout)) + ")";
-  } else {
-    std::ostringstream why;
-    why << "auto: " << std::setprecision(3) << (n > 1 ? 100.0 * nnz / (n * (n - 1)) : 0.0)
-        << "% of pairs face each other, so " << layout_name(layout) << " is smaller";
-    m.storage_reason = why.str();
-  }
-  m.matrix_bytes = matrix_bytes(layout, opt.matrix_precision, n, nnz);
+  const double n = mesh.size(), g = m.surfaces;
   m.output_bytes = 8.0 * g * g * (opt.enforcement ? 5.0 : 1.0) + 8.0 * double(std::max(opt.points, 0)) * g;
-  m.estimated_bytes = m.matrix_bytes + m.patches.per_patch_bytes * n + m.output_bytes;
-  m.limit_bytes = opt.max_memory_bytes > 0 ? opt.max_memory_bytes : available_memory_bytes();
-  m.limit_source = opt.max_memory_bytes > 0 ? "--max-memory" : "MemAvailable";
-  if (m.limit_bytes <= 0 || m.estimated_bytes <= m.limit_bytes) return layout;
-  const std::string limit = opt.max_memory_bytes > 0
-                                ? "--max-memory is " + format_bytes(m.limit_bytes)
-                                : "only " + format_bytes(m.limit_bytes) +
-                                      " is available (MemAvailable; set --max-memory to override)";
+  const StorageChoice c = choose_storage(opt.matrix_layout, opt.matrix_precision, n, double(m.patches.nonzero_pairs),
+                                         m.patches.per_patch_bytes * n + m.output_bytes, opt.max_memory_bytes);
+  m.storage = c.storage;
+  m.storage_reason = c.reason;
+  m.matrix_bytes = c.matrix_bytes;
+  m.estimated_bytes = c.estimated_bytes;
+  m.limit_bytes = c.limit_bytes;
+  m.limit_source = c.limit_source;
+  if (c.fits) return c;
   throw_bad_input("view factors need an estimated " + format_bytes(m.estimated_bytes) + " for " +
                   format_count(mesh.size()) + " patches (" + m.storage + " form factors, " +
-                  format_count(m.surfaces) + " output surfaces) but " + limit +
+                  format_count(m.surfaces) + " output surfaces) but " + c.limit_description() +
                   "; use a coarser mesh (--max-edge)" +
-                  (opt.matrix_precision == MatrixPrecision::Double ? std::string(", --matrix-precision float") : "") +
+                  (c.precision == MatrixPrecision::Double ? std::string(", --matrix-precision float") : "") +
                   (opt.level != AggregateLevel::Group ? std::string(", --by group") : "") + " or raise --max-memory");
 }
 
@@ -60,7 +50,7 @@ PatchViewFactors compute_view_factors(const Scene& scene, const ViewFactorOption
   PatchViewFactors r;
   r.mesh = subdivide(scene, opt.patching);
   if (r.mesh.size() == 0) throw_bad_input(scene.source + ": no surface to compute view factors for");
-  const MatrixLayout layout = check_memory(scene, r.mesh, opt, r.memory);
+  const StorageChoice storage = check_memory(scene, r.mesh, opt, r.memory);
   // Visibility choice: the same rule as the solve (pipeline/solve.cpp, VisibilityMode::Auto).
   std::string reason;
   switch (opt.visibility) {
@@ -90,8 +80,8 @@ PatchViewFactors compute_view_factors(const Scene& scene, const ViewFactorOption
   fill.visibility = r.visibility.get();
   fill.rays = opt.rays;
   fill.seed = opt.seed;
-  fill.layout = layout;
-  fill.precision = opt.matrix_precision;
+  fill.layout = storage.layout;
+  fill.precision = storage.precision;
   r.F = fill_form_factors(r.mesh, fill, r.fill);
   return r;
 }

@@ -37,10 +37,11 @@ struct ViewFactorOptions {
   int rays = 576;                     // rays per (receiver point, patch) in ray mode
   uint64_t seed = 1;
   int threads = 0;                    // OpenMP threads for the fill; 0 = all cores
-  // Storage of the patch-level matrix (formfactors/storage.h): Auto picks dense or sparse from
-  // the estimated share of facing pairs, as `solve` does.
+  // Storage of the patch-level matrix (formfactors/storage.h), chosen as `solve` does
+  // (pipeline/memory.h choose_storage): layout Auto picks dense or sparse from the estimated
+  // share of facing pairs; precision Auto is double unless only float fits the memory limit.
   MatrixLayout matrix_layout = MatrixLayout::Auto;
-  MatrixPrecision matrix_precision = MatrixPrecision::Double;
+  MatrixPrecision matrix_precision = MatrixPrecision::Auto;
   // Memory guard: refuse (BadInput) before the fill when the estimate (ViewFactorMemory) exceeds
   // this many bytes; 0 = MemAvailable (pipeline/memory.h), as `solve --max-memory`.
   double max_memory_bytes = 0.0;
