@@ -130,10 +130,16 @@ double FormFactors::operator()(int i, int j) const {
 double FormFactors::row_dot(int i, const Eigen::VectorXd& x) const {
   if (layout_ == MatrixLayout::Dense) {
     if (precision_ == MatrixPrecision::Double) return dense_double_.row(i).dot(x);
-    // Widen in blocks so Eigen vectorizes both the conversion and the product.
+    // Eight partial sums: one running sum would wait on each addition's latency (the compiler
+    // may not reorder a floating-point sum), eight independent ones vectorize.
     const float* row = dense_float_.data() + size_t(i) * size_t(n_);
-    double sum = 0.0;
-    for (int j = 0; j < n_; ++j) sum += double(row[j]) * x[j];
+    const double* xs = x.data();
+    double acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    int j = 0;
+    for (; j + 8 <= n_; j += 8)
+      for (int k = 0; k < 8; ++k) acc[k] += double(row[j + k]) * xs[j + k];
+    double sum = ((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7]));
+    for (; j < n_; ++j) sum += double(row[j]) * xs[j];
     return sum;
   }
   const std::vector<int32_t>& c = columns_[i];
