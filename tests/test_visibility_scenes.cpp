@@ -295,7 +295,8 @@ TEST(VisibilityScenes, GroupedCullerKeepsEveryOccluderItNeeds) {
 }
 
 // Convex solids (the furniture's boxes) cast their shadows with the faces toward the receiver
-// only: dropping the rest changes no exact visible factor, also for receivers on the floor under
+// only, or as one volume each: dropping the rest, or clipping by the solid's volume, changes no
+// exact visible factor, also for receivers on the floor under
 // a leg (on the solid's surface: nothing dropped) and on the furniture itself. The room (normals
 // inward) is not a convex solid.
 TEST(VisibilityScenes, ConvexSolidsCastShadowsWithTheirFrontFacesOnly) {
@@ -321,6 +322,9 @@ TEST(VisibilityScenes, ConvexSolidsCastShadowsWithTheirFrontFacesOnly) {
       const int nb = mesh.patches[j].corner_count;
       const double all = exact_visible_form_factor(x, b, nb, culler.faces(), everything);
       EXPECT_NEAR(exact_visible_form_factor(x, b, nb, culler.faces(), kept), all, 1e-13) << i << " " << j;
+      // One shadow volume per solid (its silhouette and front faces) hides the same.
+      EXPECT_NEAR(exact_visible_form_factor(x, b, nb, culler.faces(), kept, &culler.normals(), &culler), all, 1e-13)
+          << i << " " << j;
       occluded += all < lambert_form_factor(x, b, nb) - 1e-12;
       ++checked;
     }

@@ -76,6 +76,11 @@ class ShaftCuller {
   // the solid's surface or inside it keeps every face.
   void drop_hidden_faces(const Vec3& x, std::vector<int>& faces) const;
   int convex_solid_count() const { return static_cast<int>(solids_.size()); }
+  // The convex solid of face f (-1: none), a solid's faces, and the face across edge k (corner k
+  // to k + 1) of face f (-1 where the edge is not shared by exactly one other face).
+  int solid_of(int f) const { return solid_of_[size_t(f)]; }
+  const std::vector<int>& solid_faces(int solid) const { return solids_[size_t(solid)]; }
+  int neighbour(int f, int k) const { return neighbours_[size_t(f)][size_t(k)]; }
 
  private:
   struct Node {
@@ -92,6 +97,7 @@ class ShaftCuller {
   std::vector<Polygon> faces_;
   std::vector<std::vector<int>> solids_;       // faces of each convex solid
   std::vector<int> solid_of_;                  // per face: its convex solid, or -1
+  std::vector<std::vector<int>> neighbours_;   // per face and edge: the face across it, or -1
   std::vector<Vec3> normals_;                  // unit plane normals
   std::vector<Eigen::AlignedBox3d> boxes_;
   std::vector<int> order_;                     // face indices, leaf ranges point into it
@@ -152,9 +158,12 @@ class GroupedShaftCuller {
 // size) blocks nothing, and nothing on or in front of an occluder's plane (seen from x) is
 // hidden by it, so coplanar neighbours of the source do not shadow it.
 // `normals` (optional): the faces' unit plane normals (polygon_normal), so they are not recomputed.
+// `solids` (optional; the culler these faces and normals are from): the listed faces of a convex
+// solid x is clearly outside of cast one shadow volume, the solid's (the cone through its
+// silhouette, behind its front faces), rather than one each; the same set is hidden.
 double exact_visible_form_factor(const Receiver& receiver, const Vec3* source, int n,
                                  const std::vector<Polygon>& faces, const std::vector<int>& which,
-                                 const std::vector<Vec3>* normals = nullptr);
+                                 const std::vector<Vec3>* normals = nullptr, const ShaftCuller* solids = nullptr);
 
 // Ray-cast visibility with Embree 3 (see 2. above). Thread-safe after construction; results
 // depend only on (seed, pair), never on the thread count.
