@@ -325,7 +325,6 @@ class Suite {
   void patch_patch_adaptive() {
     for (double tol : opt_.quick ? std::vector<double>{1e-3, 1e-6} : std::vector<double>{1e-2, 1e-4, 1e-6, 1e-8, 1e-10}) {
       ErrorStats err;
-      long long evaluations = 0;
       const auto t0 = Clock::now();
       for (const auto& c : refs_.at("cases")) {
         if (c.at("kind") != "patch_patch" || c.at("id").get<std::string>().rfind("C41", 0) == 0) continue;
@@ -335,7 +334,6 @@ class Suite {
         if (polygon_normal(p1).dot(n1) < 0) std::reverse(p1.begin(), p1.end());
         if (polygon_normal(p2).dot(n2) < 0) std::reverse(p2.begin(), p2.end());
         const PairResult r = pair_form_factor(p1.data(), int(p1.size()), n1, p2.data(), int(p2.size()), n2, tol);
-        evaluations += r.evaluations;
         err.add(r.form_factor, number(c.at("value")));
       }
       std::ostringstream name;
