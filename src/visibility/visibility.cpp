@@ -680,8 +680,11 @@ class PiecePool {
 // by one). A segment from x meets the solid exactly when it crosses the cone from x through the
 // solid's silhouette (the edges between a face x is in front of and one it is not), and beyond
 // the entry point it is behind every front face's plane; so the shadow is one convex volume: a
-// wedge plane per silhouette edge and the plane of each front face. One volume instead of one
-// per front face (three for a box) cuts the pieces fewer times. eps: its classification
+// wedge plane per silhouette edge and the plane of each front face (Crow 1977, "Shadow
+// algorithms for computer graphics": a shadow volume bounded by planes through the light and
+// the occluder's silhouette edges; here the "light" is the receiver point, as in Nishita &
+// Nakamae 1985). One volume instead of one per front face (three for a box) cuts the pieces
+// fewer times. eps: its classification
 // tolerance, 1e-12 × the configuration's size.
 bool solid_volume(const ShaftCuller& culler, int solid, const Vec3& x, double scale, std::vector<Plane>& volume,
                   double& eps) {
@@ -1049,7 +1052,8 @@ double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& no
   }
   const size_t visible_count = c.visible.size();
   auto piece = [&](size_t k) -> const Polygon& { return k < visible_count ? c.visible[k] : c.hidden[k - visible_count]; };
-  // Lambert's formula is additive over a partition of the patch. Parts are moved along the
+  // Lambert's formula is additive over a partition of the patch (an integral over directions;
+  // seed 002 sec. 1.1 clips the source the same way). Parts are moved along the
   // tile's normal into the patch's own plane (they differ by rounding on a flat face, by at most
   // the flatness tolerance on a nearly flat one).
   const Receiver at_origin{Vec3::Zero(), m.x.normal, m.x.approach};
