@@ -684,29 +684,27 @@ class PiecePool {
 // algorithms for computer graphics": a shadow volume bounded by planes through the light and
 // the occluder's silhouette edges; here the "light" is the receiver point, as in Nishita &
 // Nakamae 1985). One volume instead of one per front face (three for a box) cuts the pieces
-// fewer times. eps: its classification
-// tolerance, 1e-12 × the configuration's size.
-bool solid_volume(const ShaftCuller& culler, int solid, const Vec3& x, double scale, std::vector<Plane>& volume,
-                  double& eps) {
+// fewer times. reach: the largest distance from x to the solid's corners (its classification
+// tolerance is 1e-12 × the configuration's size, which includes it).
+bool solid_volume(const ShaftCuller& culler, int solid, const Vec3& x, std::vector<Plane>& volume, double& reach) {
   const std::vector<int>& faces = culler.solid_faces(solid);
   const double tol = culler.tolerance();
   thread_local std::vector<int> front;
   front.clear();
   Vec3 centre = Vec3::Zero();
   int corners = 0;
-  double wscale = scale;
+  reach = 0.0;
   for (int g : faces) {
     const Polygon& w = culler.faces()[size_t(g)];
     if (culler.normals()[size_t(g)].dot(x - w[0]) > tol) front.push_back(g);
     for (const Vec3& v : w) {
       centre += v - x;
       ++corners;
-      wscale = std::max(wscale, (v - x).norm());
+      reach = std::max(reach, (v - x).norm());
     }
   }
   if (front.empty() || corners == 0) return false;
   centre /= corners;
-  eps = 1e-12 * wscale;
   auto is_front = [&](int g) { return std::find(front.begin(), front.end(), g) != front.end(); };
   for (int g : front) {
     const Polygon& w = culler.faces()[size_t(g)];
@@ -726,68 +724,128 @@ bool solid_volume(const ShaftCuller& culler, int solid, const Vec3& x, double sc
   return true;
 }
 
+// The shadow volumes cast from one point x: of single faces and of convex solids, each built on
+// first use and kept until the next point. A point's tiles share most of their occluders, so a
+// volume is built once per point rather than once per tile and occluder.
+class ShadowVolumes {
+ public:
+  struct Volume {
+    long long stamp = -1;
+    bool casts = false;     // false: no volume (a face seen edge-on, a solid x is not outside)
+    double reach = 0.0;     // largest distance from x to the occluder's corners
+    double edge_on = 0.0;   // a face: the distance of its plane from x (it blocks nothing when <= eps)
+    std::vector<Plane> planes;  // m·y >= d inside the shadow, relative to x
+  };
+
+  // Forgets every volume: the following ones are seen from x.
+  void start(const Vec3& x) {
+    x_ = x;
+    ++generation_;
+  }
+
+  // The squared distance from x to face f's nearest corner (the order of subtraction).
+  double nearest(const std::vector<Polygon>& faces, int f) {
+    if (size_t(f) >= nearest_.size()) nearest_.resize(faces.size(), {-1, 0.0});
+    auto& [stamp, d] = nearest_[size_t(f)];
+    if (stamp != generation_) {
+      stamp = generation_;
+      d = std::numeric_limits<double>::infinity();
+      for (const Vec3& v : faces[size_t(f)]) d = std::min(d, (v - x_).squaredNorm());
+    }
+    return d;
+  }
+
+  // Face f's own shadow volume: beyond its plane, inside the cone from x through its edges.
+  const Volume& face(const std::vector<Polygon>& faces, const std::vector<Vec3>* normals, int f) {
+    if (size_t(f) >= faces_.size()) faces_.resize(faces.size());
+    Volume& v = faces_[size_t(f)];
+    if (v.stamp == generation_) return v;
+    v.stamp = generation_;
+    v.planes.clear();
+    const Polygon& w = faces[size_t(f)];
+    const int wn = static_cast<int>(w.size());
+    thread_local Polygon wr;
+    wr.resize(size_t(wn));
+    Vec3 centre = Vec3::Zero();
+    v.reach = 0.0;
+    for (int k = 0; k < wn; ++k) {
+      wr[size_t(k)] = w[size_t(k)] - x_;
+      centre += wr[size_t(k)] / wn;
+      v.reach = std::max(v.reach, wr[size_t(k)].norm());
+    }
+    const Vec3 nw = normals ? (*normals)[size_t(f)] : polygon_normal(w);
+    const double h = nw.dot(wr[0]);  // signed distance of W's plane from x along nw
+    v.casts = !nw.isZero();
+    v.edge_on = std::abs(h);
+    if (!v.casts) return v;
+    // Beyond W's plane, on the side away from x.
+    v.planes.push_back({h > 0 ? nw : Vec3(-nw), std::abs(h)});
+    // Inside the cone from x through W: one wedge plane through x per edge, oriented to W.
+    for (int k = 0; k < wn; ++k) {
+      Vec3 m = wr[size_t(k)].cross(wr[size_t((k + 1) % wn)]);
+      const double len = m.norm();
+      if (!(len > 0.0)) continue;
+      m /= len;
+      if (m.dot(centre) < 0) m = -m;
+      v.planes.push_back({m, 0.0});
+    }
+    return v;
+  }
+
+  // Convex solid s's one shadow volume (solid_volume).
+  const Volume& solid(const ShaftCuller& culler, int s) {
+    if (size_t(s) >= solids_.size()) solids_.resize(size_t(culler.convex_solid_count()));
+    Volume& v = solids_[size_t(s)];
+    if (v.stamp == generation_) return v;
+    v.stamp = generation_;
+    v.planes.clear();
+    v.casts = solid_volume(culler, s, x_, v.planes, v.reach);
+    return v;
+  }
+
+ private:
+  Vec3 x_ = Vec3::Zero();
+  long long generation_ = 0;
+  std::vector<std::pair<long long, double>> nearest_;
+  std::vector<Volume> faces_, solids_;
+};
+
 // Subtracts from `pieces` (convex polygons relative to x, at most `scale` from it) the shadow
 // volumes of faces[which] seen from x: what is left is the part of them x sees. `shadows`
 // (optional) receives the hidden parts; they are disjoint, and with what is left they partition
 // the input. Returns true when any face cut or hid a piece (false: the pieces are unchanged).
 // With `solids` (the culler whose faces these are), the listed faces of a convex solid that x is
 // clearly outside of are replaced by the solid's one shadow volume (see solid_volume).
-bool subtract_shadows(const Vec3& x, double scale, const std::vector<Polygon>& faces, const std::vector<int>& which,
+// `volumes`: the shadow volumes seen from x (started at x), reused across calls from one point.
+bool subtract_shadows(double scale, const std::vector<Polygon>& faces, const std::vector<int>& which,
                       const std::vector<Vec3>* normals, PiecePool& pieces, PiecePool* shadows,
-                      const ShaftCuller* solids = nullptr) {
+                      const ShaftCuller* solids, ShadowVolumes& volumes) {
   thread_local PiecePool next;
-  thread_local std::vector<Plane> volume;  // here m·y >= d is inside the shadow volume
   thread_local std::vector<double> s;
-  thread_local Polygon inside, outside, cur, wr;
+  thread_local Polygon inside, outside, cur;
   thread_local std::vector<int> done_solids;
   bool cut = false;
   // Nearest occluders first: their shadows are the widest, and what they hide is not cut again
   // by the others.
   thread_local std::vector<std::pair<double, int>> order;
   order.clear();
-  for (int f : which) {
-    double d = std::numeric_limits<double>::infinity();
-    for (const Vec3& v : faces[size_t(f)]) d = std::min(d, (v - x).squaredNorm());
-    order.emplace_back(d, f);
-  }
+  for (int f : which) order.emplace_back(volumes.nearest(faces, f), f);
   std::sort(order.begin(), order.end());
   done_solids.clear();
   for (const auto& [distance, f] : order) {
     if (pieces.empty()) break;
-    volume.clear();
-    double eps = 0.0;
     const int solid = solids ? solids->solid_of(f) : -1;
     if (solid >= 0 && std::find(done_solids.begin(), done_solids.end(), solid) != done_solids.end()) continue;
-    if (solid >= 0 && solid_volume(*solids, solid, x, scale, volume, eps)) {
+    const ShadowVolumes::Volume* v = solid >= 0 ? &volumes.solid(*solids, solid) : nullptr;
+    if (v && v->casts) {
       done_solids.push_back(solid);
     } else {
-      volume.clear();
-      const Polygon& w = faces[f];
-      const int wn = static_cast<int>(w.size());
-      double wscale = scale;
-      wr.resize(size_t(wn));
-      Vec3 centre = Vec3::Zero();
-      for (int k = 0; k < wn; ++k) {
-        wr[k] = w[k] - x;
-        centre += wr[k] / wn;
-        wscale = std::max(wscale, wr[k].norm());
-      }
-      eps = 1e-12 * wscale;
-      const Vec3 nw = normals ? (*normals)[size_t(f)] : polygon_normal(w);
-      const double h = nw.dot(wr[0]);  // signed distance of W's plane from x along nw
-      if (std::abs(h) <= eps || nw.isZero()) continue;  // seen edge-on: blocks nothing
-      // Beyond W's plane, on the side away from x.
-      volume.push_back({h > 0 ? nw : Vec3(-nw), std::abs(h)});
-      // Inside the cone from x through W: one wedge plane through x per edge, oriented to W.
-      for (int k = 0; k < wn; ++k) {
-        Vec3 m = wr[k].cross(wr[(k + 1) % wn]);
-        const double len = m.norm();
-        if (!(len > 0.0)) continue;
-        m /= len;
-        if (m.dot(centre) < 0) m = -m;
-        volume.push_back({m, 0.0});
-      }
+      v = &volumes.face(faces, normals, f);
+      if (!v->casts || v->edge_on <= 1e-12 * std::max(scale, v->reach)) continue;  // seen edge-on: blocks nothing
     }
+    // Classification tolerance: 1e-12 × the configuration's size.
+    const double eps = 1e-12 * std::max(scale, v->reach);
+    const std::vector<Plane>& volume = v->planes;
     // Every piece outside one plane of the volume (the usual case for the back faces of a box
     // and for occluders behind the source): it hides none of them.
     bool separated = false;
@@ -855,7 +913,9 @@ double exact_visible_form_factor(const Receiver& receiver, const Vec3* source, i
     src[size_t(k)] = source[k] - x;
     scale = std::max(scale, src[size_t(k)].norm());
   }
-  if (!subtract_shadows(x, scale, faces, which, normals, pieces, nullptr, solids))
+  thread_local ShadowVolumes volumes;  // one call per point here
+  volumes.start(x);
+  if (!subtract_shadows(scale, faces, which, normals, pieces, nullptr, solids, volumes))
     return lambert_form_factor(receiver, source, n);
   // Lambert's formula is additive over a partition of the source (an integral over directions).
   const Receiver at_origin{Vec3::Zero(), receiver.normal, receiver.approach};
@@ -949,6 +1009,7 @@ struct PointVisibility::Impl {
   long long generation = 0;
   std::vector<TileClip> tiles;
   std::vector<int> occluders, casting;
+  ShadowVolumes volumes;  // seen from x, shared by its tiles
 
   Impl(const Visibility& v, const PatchMesh& mesh) : vis(&v), grouped(v.culler(), mesh) {
     tiles.resize(size_t(grouped.tile_count()));
@@ -984,8 +1045,8 @@ struct PointVisibility::Impl {
     }
     c.eps = 1e-12 * scale;
     c.normal = newell_vector(rect.data(), 4).normalized();  // before `rect` is clipped away
-    c.cut = !casting.empty() && subtract_shadows(x.point, scale, vis->culler().faces(), casting,
-                                                 &vis->culler().normals(), c.visible, &c.hidden, &vis->culler());
+    c.cut = !casting.empty() && subtract_shadows(scale, vis->culler().faces(), casting,
+                                                 &vis->culler().normals(), c.visible, &c.hidden, &vis->culler(), volumes);
     c.box.clear();
     if (c.cut) {
       // Boxes grown by what a flat tile allows out of its plane (GroupedShaftCuller), so a patch
@@ -1007,6 +1068,7 @@ PointVisibility& PointVisibility::operator=(PointVisibility&&) noexcept = defaul
 void PointVisibility::set_receiver(const Receiver& x) {
   impl_->x = x;
   impl_->receiver_set = false;  // the culler's receiver is set on first need
+  impl_->volumes.start(x.point);
   ++impl_->generation;
 }
 
