@@ -966,10 +966,9 @@ namespace {
 
 // The part of convex polygon `in` inside every half-space m_k·y >= d_k of `planes`, with
 // vertices within eps of a plane counted as on it: `in` itself when no plane cuts it, else
-// `work` holding the part, or null when nothing of positive width is left.
-const Polygon* clip_to_planes(const Polygon& in, const Plane* planes, int count, double eps, Polygon& work) {
-  thread_local Polygon tmp;
-  thread_local std::vector<double> s;
+// `work` holding the part, or null when nothing of positive width is left. tmp, s: scratch.
+const Polygon* clip_to_planes(const Polygon& in, const Plane* planes, int count, double eps, Polygon& work,
+                              Polygon& tmp, std::vector<double>& s) {
   const Polygon* out = &in;
   for (int p = 0; p < count; ++p) {
     s.resize(out->size());
@@ -1010,6 +1009,8 @@ struct PointVisibility::Impl {
   std::vector<TileClip> tiles;
   std::vector<int> occluders, casting;
   ShadowVolumes volumes;  // seen from x, shared by its tiles
+  Polygon rel, part, work, tmp;  // scratch of visible()
+  std::vector<double> values;
 
   Impl(const Visibility& v, const PatchMesh& mesh) : vis(&v), grouped(v.culler(), mesh) {
     tiles.resize(size_t(grouped.tile_count()));
@@ -1093,14 +1094,26 @@ double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& no
   if (m.grouped.tile_occluders(t).empty()) return unoccluded;
   Impl::TileClip& c = m.clip(t);
   if (!c.cut) return unoccluded;
-  // The patch relative to x, its box, and its edges' inward planes (each contains the edge and
-  // the patch's normal; m·y >= d inside). Pieces are cut to the patch by these planes: a patch's
-  // edges are well shaped, while a piece may have an edge of almost no length, whose direction
-  // rounding leaves undefined.
-  thread_local Polygon rel, part, work;
+  // The patch relative to x and its box: most patches are settled by boxes alone.
+  Polygon &rel = m.rel, &part = m.part;
   rel.resize(size_t(nb));
   Eigen::AlignedBox3d box;
   for (int k = 0; k < nb; ++k) box.extend(rel[size_t(k)] = b[k] - m.x.point);
+  const size_t visible_count = c.visible.size();
+  // No visible piece near the patch: all of it is hidden (the pieces cover the tile).
+  bool near_visible = false;
+  for (size_t k = 0; k < visible_count && !near_visible; ++k) near_visible = c.box[k].intersects(box);
+  if (!near_visible) {
+    unshadowed = false;
+    return 0.0;
+  }
+  // No hidden piece near it: unshadowed.
+  size_t first_hidden = visible_count;
+  while (first_hidden < c.box.size() && !c.box[first_hidden].intersects(box)) ++first_hidden;
+  if (first_hidden == c.box.size()) return unoccluded;
+  // The patch's edges' inward planes (each contains the edge and the patch's normal; m·y >= d
+  // inside). Pieces are cut to the patch by these planes: a patch's edges are well shaped, while
+  // a piece may have an edge of almost no length, whose direction rounding leaves undefined.
   const Vec3 n = newell_vector(rel.data(), nb).normalized();
   if (!(std::abs(n.dot(c.normal)) > 0.5)) return by_patch();  // not in the tile's plane (a degenerate patch)
   Plane edges[4];
@@ -1112,7 +1125,6 @@ double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& no
     e /= len;
     edges[edge_count++] = {e, e.dot(rel[size_t(k)])};
   }
-  const size_t visible_count = c.visible.size();
   auto piece = [&](size_t k) -> const Polygon& { return k < visible_count ? c.visible[k] : c.hidden[k - visible_count]; };
   // Lambert's formula is additive over a partition of the patch (an integral over directions;
   // seed 002 sec. 1.1 clips the source the same way). Parts are moved along the
@@ -1125,19 +1137,12 @@ double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& no
     for (Vec3& y : part) y -= ((n.dot(y) - offset) / along) * c.normal;
     return lambert_form_factor(at_origin, part.data(), static_cast<int>(part.size()));
   };
-  // No visible piece near the patch: all of it is hidden (the pieces cover the tile).
-  bool near_visible = false;
-  for (size_t k = 0; k < visible_count && !near_visible; ++k) near_visible = c.box[k].intersects(box);
-  if (!near_visible) {
-    unshadowed = false;
-    return 0.0;
-  }
   // The hidden parts of the patch: none of positive area, and the patch is unshadowed.
   bool overlaps = false;
   double hidden = 0.0;
-  for (size_t k = visible_count; k < c.box.size(); ++k) {
+  for (size_t k = first_hidden; k < c.box.size(); ++k) {
     if (!c.box[k].intersects(box)) continue;
-    const Polygon* q = clip_to_planes(piece(k), edges, edge_count, c.eps, work);
+    const Polygon* q = clip_to_planes(piece(k), edges, edge_count, c.eps, m.work, m.tmp, m.values);
     if (!q) continue;
     overlaps = true;
     hidden += part_factor(q);
@@ -1151,7 +1156,7 @@ double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& no
   double f = 0.0;
   for (size_t k = 0; k < visible_count; ++k) {
     if (!c.box[k].intersects(box)) continue;
-    const Polygon* q = clip_to_planes(piece(k), edges, edge_count, c.eps, work);
+    const Polygon* q = clip_to_planes(piece(k), edges, edge_count, c.eps, m.work, m.tmp, m.values);
     if (q) f += part_factor(q);
   }
   return std::min(unoccluded, std::clamp(f, 0.0, 1.0));
