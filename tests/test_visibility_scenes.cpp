@@ -355,10 +355,12 @@ TEST(VisibilityScenes, PointVisibilityPerTileEqualsClippingEachPatch) {
   std::vector<Case> cases;
   cases.push_back({load_scene(mesh_path("cornell_box.obj")), 0.15, 5});
   cases.push_back({validation::bench_room_scene(), 0.3, 13});
+  for (const PointCulling culling : {PointCulling::Cones, PointCulling::Tree})
   for (const Case& c : cases) {
+    SCOPED_TRACE(culling == PointCulling::Cones ? "cone culling" : "tree culling");
     const PatchMesh mesh = subdivide(c.scene, {c.edge, 0.0});
     const Visibility vis(c.scene, VisibilityMethod::Exact);
-    PointVisibility from_point(vis, mesh);
+    PointVisibility from_point(vis, mesh, culling);
     std::vector<int> everything(vis.culler().face_count());
     std::iota(everything.begin(), everything.end(), 0);
     const double tol = plane_tolerance(mesh);

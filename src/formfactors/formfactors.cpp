@@ -180,9 +180,10 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
       if (from_point && f0 > 0.0) {
         ++tested;
         bool unshadowed = true;
-        const uint64_t stream = pair_stream(options.seed, uint64_t(i), uint64_t(j));
+        // Only rays use the pair's stream.
+        const uint64_t stream = rays_mode ? pair_stream(pair_stream(options.seed, uint64_t(i), uint64_t(j)), 0, 0) : 0;
         const double v = from_point->visible(j, sj, pj.corner_count, pj.normal, unoccluded[0], options.rays,
-                                             pair_stream(stream, 0, 0), rays, unshadowed);
+                                             stream, rays, unshadowed);
         if (unshadowed) ++culled;
         if (rays_mode && !unshadowed) ray_part[size_t(j)] = v;
         unoccluded[0] = v;

@@ -93,6 +93,7 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
   long long evaluated = 0, rays = 0, tested = 0, culled = 0;
   // Every patch as one SIMD batch: a point's kernel to all patches in one call (lambert_batch.h).
   const PolygonBatch sources = patch_batch(mesh);
+  const bool rays_mode = vis && vis->method() == VisibilityMethod::Rays;
   // Visibility from each point (visibility.h: culling by face, tile and patch; exact clipping per tile): one per thread.
   std::vector<PointVisibility> point_visibility;
   if (vis)
@@ -121,7 +122,8 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
         ++tested;
         bool unshadowed = true;
         f = from_point->visible(j, src, pj.corner_count, pj.normal, f, opt.rays,
-                                pair_stream(opt.seed ^ 0x5eedULL, uint64_t(o), uint64_t(j)), rays, unshadowed);
+                                rays_mode ? pair_stream(opt.seed ^ 0x5eedULL, uint64_t(o), uint64_t(j)) : 0, rays,
+                                unshadowed);  // only rays use the pair's stream
         culled += unshadowed;
       }
       h += f * r.radiosity.row(j);

@@ -645,12 +645,33 @@ void clip_keep(const Polygon& in, const std::vector<double>& s, int keep, Polygo
   out.clear();
   const size_t n = in.size();
   for (size_t i = 0; i < n; ++i) {
-    const size_t j = (i + 1) % n;
+    const size_t j = i + 1 == n ? 0 : i + 1;  // not (i + 1) % n: a division per vertex
     const double si = keep * s[i], sj = keep * s[j];
     if (si >= 0) out.push_back(in[i]);
     if ((si > 0 && sj < 0) || (si < 0 && sj > 0)) out.push_back(in[i] + (si / (si - sj)) * (in[j] - in[i]));
   }
   if (out.size() < 3) out.clear();
+}
+
+// Both parts at once: clip_keep(in, s, +1, inside) and clip_keep(in, s, −1, outside), the same
+// points (the crossing si / (si − sj) is the same number with both signs flipped).
+void split_keep(const Polygon& in, const std::vector<double>& s, Polygon& inside, Polygon& outside) {
+  inside.clear();
+  outside.clear();
+  const size_t n = in.size();
+  for (size_t i = 0; i < n; ++i) {
+    const size_t j = i + 1 == n ? 0 : i + 1;
+    const double si = s[i], sj = s[j];
+    if (si >= 0) inside.push_back(in[i]);
+    if (si <= 0) outside.push_back(in[i]);
+    if ((si > 0 && sj < 0) || (si < 0 && sj > 0)) {
+      const Vec3 y = in[i] + (si / (si - sj)) * (in[j] - in[i]);
+      inside.push_back(y);
+      outside.push_back(y);
+    }
+  }
+  if (inside.size() < 3) inside.clear();
+  if (outside.size() < 3) outside.clear();
 }
 
 // A list of polygons that keeps its polygons' storage between uses (clear() forgets the count only).
@@ -879,9 +900,8 @@ bool subtract_shadows(double scale, const std::vector<Polygon>& faces, const std
         }
         if (all_in) continue;
         cut = true;
-        clip_keep(*rest, s, -1, outside);
+        split_keep(*rest, s, inside, outside);
         if (!outside.empty()) next.push().swap(outside);
-        clip_keep(*rest, s, +1, inside);
         cur.swap(inside);
         rest = &cur;
         if (cur.empty()) { shadowed = false; break; }
@@ -1000,6 +1020,42 @@ struct PointVisibility::Impl {
     std::vector<Eigen::AlignedBox3d> box;  // per piece, visible ones first, then hidden
     Vec3 normal;                           // the tile's unit normal
     double eps = 0.0;
+    long long listed = -1;   // cone culling: the point `occluders` belong to
+    std::vector<int> occluders;
+  };
+  // The cone from x around a polygon's corners: unit axis, cosine and sine of the half-angle;
+  // wide when the half-angle may reach 90° (or x is on a corner): then it bounds nothing.
+  struct Cone {
+    Vec3 axis = Vec3::Zero();
+    double cos = -1.0, sin = 0.0;
+    bool wide = true;
+  };
+  // Cones of faces, structure of arrays for the filter loop below. A wide cone is stored with a
+  // zero axis and cos = −1e9, so that it passes every test against a cone that is not wide.
+  struct ConeSet {
+    std::vector<double> ax, ay, az, cos, sin;
+    std::vector<int> face;
+    size_t size() const { return face.size(); }
+    void clear() {
+      for (auto* v : {&ax, &ay, &az, &cos, &sin}) v->clear();
+      face.clear();
+    }
+    void push(const Cone& c, int f) {
+      ax.push_back(c.wide ? 0.0 : c.axis.x());
+      ay.push_back(c.wide ? 0.0 : c.axis.y());
+      az.push_back(c.wide ? 0.0 : c.axis.z());
+      cos.push_back(c.wide ? -1e9 : c.cos);
+      sin.push_back(c.wide ? 0.0 : c.sin);
+      face.push_back(f);
+    }
+    void push(const ConeSet& from, size_t k) {
+      ax.push_back(from.ax[k]);
+      ay.push_back(from.ay[k]);
+      az.push_back(from.az[k]);
+      cos.push_back(from.cos[k]);
+      sin.push_back(from.sin[k]);
+      face.push_back(from.face[k]);
+    }
   };
   const Visibility* vis;
   GroupedShaftCuller grouped;
@@ -1011,9 +1067,132 @@ struct PointVisibility::Impl {
   ShadowVolumes volumes;  // seen from x, shared by its tiles
   Polygon rel, part, work, tmp;  // scratch of visible()
   std::vector<double> values;
+  // Cone culling (see the header): the faces that may shadow from x and their cones.
+  bool cones;
+  long long candidates_for = -1;  // the point they belong to
+  ConeSet candidates;
+  std::vector<int> faces, near;
+  std::vector<Vec3> directions, tile_corners;
+  std::vector<unsigned char> keep;
+  // A block: up to kBlockTiles consecutive tiles of one face (split_tiles makes them
+  // neighbours), culled first, so a tile tests only its block's candidates.
+  static constexpr int kBlockTiles = 8;
+  struct Block {
+    std::vector<Vec3> corners;  // its tiles' corners
+    long long stamp = -1;
+    ConeSet near;               // the candidates whose cones may meet the block's
+  };
+  std::vector<Block> blocks;
+  std::vector<int> block_of;  // per tile
 
-  Impl(const Visibility& v, const PatchMesh& mesh) : vis(&v), grouped(v.culler(), mesh) {
+  Impl(const Visibility& v, const PatchMesh& mesh, PointCulling culling) : vis(&v), grouped(v.culler(), mesh) {
     tiles.resize(size_t(grouped.tile_count()));
+    cones = culling == PointCulling::Cones ||
+            (culling == PointCulling::Auto && v.culler().face_count() <= kConeCullingFaces);
+    block_of.assign(tiles.size(), -1);
+    int block_face = -1;
+    for (int t = 0; t < grouped.tile_count(); ++t) {
+      if (grouped.tile_corner_count(t) != 4) continue;
+      const int face = grouped.tile_face(t);
+      if (blocks.empty() || blocks.back().corners.size() >= 4 * kBlockTiles || block_face != face) blocks.emplace_back();
+      block_face = face;
+      block_of[size_t(t)] = static_cast<int>(blocks.size()) - 1;
+      for (int k = 0; k < 4; ++k) blocks.back().corners.push_back(grouped.tile_corners(t)[k]);
+    }
+  }
+
+  // The cone from x around corners c[0, n), its half-angle widened by `margin` radians.
+  Cone cone_of(const Vec3* c, int n, double margin) {
+    Cone k;
+    directions.resize(size_t(n));
+    Vec3 sum = Vec3::Zero();
+    for (int i = 0; i < n; ++i) {
+      const Vec3 d = c[i] - x.point;
+      const double len = d.norm();
+      if (!(len > 0.0)) return k;  // x on a corner
+      sum += directions[size_t(i)] = d / len;
+    }
+    const double len = sum.norm();
+    if (!(len > 1e-6)) return k;
+    k.axis = sum / len;
+    double cmin = 1.0;
+    for (int i = 0; i < n; ++i) cmin = std::min(cmin, k.axis.dot(directions[size_t(i)]));
+    // Widened by the margin and by rounding (cos(α + m) = cos α cos m − sin α sin m, with
+    // cos m >= 1 − m²/2 and sin m <= m); below cos 89.9° the cone is taken as wide.
+    const double m = margin + 1e-12;
+    const double s = std::sqrt(std::max(0.0, 1.0 - cmin * cmin));
+    k.cos = cmin * (1.0 - 0.5 * m * m) - s * m;
+    k.sin = std::min(1.0, s + cmin * m);
+    k.wide = !(k.cos > 1.7e-3);
+    return k;
+  }
+
+  // Marks in `keep` the cones of `set` that may meet cone c: the angle between the axes at most
+  // the sum of the half-angles (both below 90°: cos(α + β) = cos α cos β − sin α sin β), with
+  // 1e-12 for rounding. No branches, so the loop vectorizes.
+  void may_meet(const Cone& c, const ConeSet& set) {
+    const size_t n = set.size();
+    keep.resize(n);
+    if (c.wide) {
+      std::fill(keep.begin(), keep.end(), 1);
+      return;
+    }
+    const double tx = c.axis.x(), ty = c.axis.y(), tz = c.axis.z(), tc = c.cos, ts = c.sin;
+    const double *ax = set.ax.data(), *ay = set.ay.data(), *az = set.az.data(), *cs = set.cos.data(), *sn = set.sin.data();
+    unsigned char* out = keep.data();
+    for (size_t k = 0; k < n; ++k)
+      out[k] = ax[k] * tx + ay[k] * ty + az[k] * tz >= tc * cs[k] - ts * sn[k] - 1e-12;
+  }
+
+  // Cone culling's candidates for the current point.
+  void find_candidates() {
+    candidates_for = generation;
+    const ShaftCuller& culler = vis->culler();
+    faces.resize(size_t(culler.face_count()));
+    std::iota(faces.begin(), faces.end(), 0);
+    culler.drop_hidden_faces(x.point, faces);
+    candidates.clear();
+    for (int f : faces) {
+      const Polygon& w = culler.faces()[size_t(f)];
+      candidates.push(static_cast<int>(w.size()) <= kMaxShaftPoints ? cone_of(w.data(), static_cast<int>(w.size()), 0.0) : Cone{}, f);
+    }
+  }
+
+  // The occluders of tile t's shaft from x (see the header).
+  const std::vector<int>& tile_occluders(int t) {
+    if (!cones || block_of[size_t(t)] < 0) {
+      if (!receiver_set) grouped.set_receiver(&x.point, 1), receiver_set = true;
+      return grouped.tile_occluders(t);
+    }
+    TileClip& c = tiles[size_t(t)];
+    if (c.listed == generation) return c.occluders;
+    c.listed = generation;
+    if (candidates_for != generation) find_candidates();
+    // The tile's patches lie within the culler's tolerance of its rectangle: widen cones by
+    // what that offset can turn a direction.
+    auto margin = [&](const std::vector<Vec3>& corners) {
+      double nearest = std::numeric_limits<double>::infinity();
+      for (const Vec3& y : corners) nearest = std::min(nearest, (y - x.point).norm());
+      return 8.0 * vis->culler().tolerance() / nearest;
+    };
+    // The block's candidates first, then the tile's among them.
+    Block& block = blocks[size_t(block_of[size_t(t)])];
+    if (block.stamp != generation) {
+      block.stamp = generation;
+      block.near.clear();
+      may_meet(cone_of(block.corners.data(), static_cast<int>(block.corners.size()), margin(block.corners)), candidates);
+      for (size_t k = 0; k < candidates.size(); ++k)
+        if (keep[k]) block.near.push(candidates, k);
+    }
+    std::vector<Vec3>& corners = tile_corners;
+    corners.assign(grouped.tile_corners(t), grouped.tile_corners(t) + 4);
+    may_meet(cone_of(corners.data(), 4, margin(corners)), block.near);
+    near.clear();
+    for (size_t k = 0; k < block.near.size(); ++k)
+      if (keep[k]) near.push_back(block.near.face[k]);
+    // In face order, as the candidates are: occluders_among keeps it, so the clipping's order is fixed.
+    vis->culler().occluders_among(&x.point, 1, corners.data(), 4, near, c.occluders);
+    return c.occluders;
   }
 
   // Appends the boxes of `pieces` to c, grown by `margin`.
@@ -1034,9 +1213,8 @@ struct PointVisibility::Impl {
     c.stamp = generation;
     c.visible.clear();
     c.hidden.clear();
-    if (!receiver_set) grouped.set_receiver(&x.point, 1), receiver_set = true;
-    casting = grouped.tile_occluders(t);
-    vis->culler().drop_hidden_faces(x.point, casting);
+    casting = tile_occluders(t);
+    if (!cones) vis->culler().drop_hidden_faces(x.point, casting);  // cone candidates have none
     Polygon& rect = c.visible.push();
     rect.resize(4);
     double scale = 0.0;
@@ -1060,8 +1238,8 @@ struct PointVisibility::Impl {
   }
 };
 
-PointVisibility::PointVisibility(const Visibility& vis, const PatchMesh& mesh)
-    : impl_(std::make_unique<Impl>(vis, mesh)) {}
+PointVisibility::PointVisibility(const Visibility& vis, const PatchMesh& mesh, PointCulling culling)
+    : impl_(std::make_unique<Impl>(vis, mesh, culling)) {}
 PointVisibility::~PointVisibility() = default;
 PointVisibility::PointVisibility(PointVisibility&&) noexcept = default;
 PointVisibility& PointVisibility::operator=(PointVisibility&&) noexcept = default;
@@ -1091,7 +1269,7 @@ double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& no
   if (m.vis->method() == VisibilityMethod::Rays || t < 0 || m.grouped.tile_corner_count(t) != 4 || nb < 3 || nb > 4)
     return by_patch();
   // The fast exit first: a tile with no occluders in its shaft needs no clipping at all.
-  if (m.grouped.tile_occluders(t).empty()) return unoccluded;
+  if (m.tile_occluders(t).empty()) return unoccluded;
   Impl::TileClip& c = m.clip(t);
   if (!c.cut) return unoccluded;
   // The patch relative to x and its box: most patches are settled by boxes alone.

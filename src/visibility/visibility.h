@@ -130,6 +130,7 @@ class GroupedShaftCuller {
   // the receiver–tile shaft.
   int tile_of(int patch) const;
   int tile_corner_count(int tile) const { return tiles_[size_t(tile)].corner_count; }
+  int tile_face(int tile) const { return tiles_[size_t(tile)].face; }
   const Vec3* tile_corners(int tile) const { return tiles_[size_t(tile)].corners; }
   const std::vector<int>& tile_occluders(int tile) { return group(culler_->face_count() + tile); }
   int tile_count() const { return static_cast<int>(tiles_.size()); }
@@ -215,10 +216,23 @@ class Visibility;
 // exact_visible_form_factor(x, patch, occluders of the pair) up to rounding (the pieces are cut
 // along other lines; tests/test_visibility_scenes.cpp). Patches of no tile or of a box tile (a
 // face that is not flat), and ray mode, take Visibility::point_to_patch.
+//
+// A tile's occluders, in exact mode, come from one of two cullings that find the same shadows:
+//  - Tree: GroupedShaftCuller's hierarchy (scene face by the AABB tree, then tile).
+//  - Cones: once per point, every face but the back faces of convex solids x is outside of
+//    (ShaftCuller::drop_hidden_faces) gets the cone from x that bounds it (axis and half-angle,
+//    the cone around the corners' directions, which bounds the convex polygon's spherical
+//    projection); a tile's candidates are the faces whose cone meets the tile's (angle between
+//    axes <= sum of half-angles), then ShaftCuller's shaft test of x and the tile. O(faces) per
+//    tile and point, with no tree walk: the faster for scenes of few faces (furnished rooms).
+//  - Auto: Cones up to kConeCullingFaces scene faces, Tree above.
 // One per thread; not thread-safe.
+enum class PointCulling { Auto, Cones, Tree };
+constexpr int kConeCullingFaces = 1024;
+
 class PointVisibility {
  public:
-  PointVisibility(const Visibility& vis, const PatchMesh& mesh);
+  PointVisibility(const Visibility& vis, const PatchMesh& mesh, PointCulling culling = PointCulling::Auto);
   ~PointVisibility();
   PointVisibility(PointVisibility&&) noexcept;
   PointVisibility& operator=(PointVisibility&&) noexcept;
