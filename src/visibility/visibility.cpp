@@ -1030,31 +1030,29 @@ struct PointVisibility::Impl {
     double cos = -1.0, sin = 0.0;
     bool wide = true;
   };
-  // Cones of faces, structure of arrays for the filter loop below. A wide cone is stored with a
-  // zero axis and cos = −1e9, so that it passes every test against a cone that is not wide.
+  // Cones of faces, structure of arrays for the filter loops below. A wide cone is stored with
+  // a zero axis and cos = −1e9, so that it passes every test against a cone that is not wide.
   struct ConeSet {
     std::vector<double> ax, ay, az, cos, sin;
     std::vector<int> face;
     size_t size() const { return face.size(); }
-    void clear() {
-      for (auto* v : {&ax, &ay, &az, &cos, &sin}) v->clear();
-      face.clear();
+    void resize(size_t n) {
+      for (auto* v : {&ax, &ay, &az, &cos, &sin}) v->resize(n);
+      face.resize(n);
     }
-    void push(const Cone& c, int f) {
-      ax.push_back(c.wide ? 0.0 : c.axis.x());
-      ay.push_back(c.wide ? 0.0 : c.axis.y());
-      az.push_back(c.wide ? 0.0 : c.axis.z());
-      cos.push_back(c.wide ? -1e9 : c.cos);
-      sin.push_back(c.wide ? 0.0 : c.sin);
-      face.push_back(f);
+    void set(size_t k, const Cone& c, int f) {
+      ax[k] = c.wide ? 0.0 : c.axis.x();
+      ay[k] = c.wide ? 0.0 : c.axis.y();
+      az[k] = c.wide ? 0.0 : c.axis.z();
+      cos[k] = c.wide ? -1e9 : c.cos;
+      sin[k] = c.wide ? 0.0 : c.sin;
+      face[k] = f;
     }
-    void push(const ConeSet& from, size_t k) {
-      ax.push_back(from.ax[k]);
-      ay.push_back(from.ay[k]);
-      az.push_back(from.az[k]);
-      cos.push_back(from.cos[k]);
-      sin.push_back(from.sin[k]);
-      face.push_back(from.face[k]);
+    // True when cone k may meet cone c (not wide): the angle between the axes at most the sum
+    // of the half-angles (both below 90°: cos(α + β) = cos α cos β − sin α sin β), with 1e-12
+    // for rounding.
+    bool may_meet(size_t k, const Cone& c) const {
+      return ax[k] * c.axis.x() + ay[k] * c.axis.y() + az[k] * c.axis.z() >= c.cos * cos[k] - c.sin * sin[k] - 1e-12;
     }
   };
   const Visibility* vis;
@@ -1073,14 +1071,13 @@ struct PointVisibility::Impl {
   ConeSet candidates;
   std::vector<int> faces, near;
   std::vector<Vec3> directions, tile_corners;
-  std::vector<unsigned char> keep;
   // A block: up to kBlockTiles consecutive tiles of one face (split_tiles makes them
   // neighbours), culled first, so a tile tests only its block's candidates.
   static constexpr int kBlockTiles = 8;
   struct Block {
     std::vector<Vec3> corners;  // its tiles' corners
     long long stamp = -1;
-    ConeSet near;               // the candidates whose cones may meet the block's
+    std::vector<int> near;      // the candidates (indices) whose cones may meet the block's
   };
   std::vector<Block> blocks;
   std::vector<int> block_of;  // per tile
@@ -1127,23 +1124,6 @@ struct PointVisibility::Impl {
     return k;
   }
 
-  // Marks in `keep` the cones of `set` that may meet cone c: the angle between the axes at most
-  // the sum of the half-angles (both below 90°: cos(α + β) = cos α cos β − sin α sin β), with
-  // 1e-12 for rounding. No branches, so the loop vectorizes.
-  void may_meet(const Cone& c, const ConeSet& set) {
-    const size_t n = set.size();
-    keep.resize(n);
-    if (c.wide) {
-      std::fill(keep.begin(), keep.end(), 1);
-      return;
-    }
-    const double tx = c.axis.x(), ty = c.axis.y(), tz = c.axis.z(), tc = c.cos, ts = c.sin;
-    const double *ax = set.ax.data(), *ay = set.ay.data(), *az = set.az.data(), *cs = set.cos.data(), *sn = set.sin.data();
-    unsigned char* out = keep.data();
-    for (size_t k = 0; k < n; ++k)
-      out[k] = ax[k] * tx + ay[k] * ty + az[k] * tz >= tc * cs[k] - ts * sn[k] - 1e-12;
-  }
-
   // Cone culling's candidates for the current point.
   void find_candidates() {
     candidates_for = generation;
@@ -1151,10 +1131,11 @@ struct PointVisibility::Impl {
     faces.resize(size_t(culler.face_count()));
     std::iota(faces.begin(), faces.end(), 0);
     culler.drop_hidden_faces(x.point, faces);
-    candidates.clear();
-    for (int f : faces) {
-      const Polygon& w = culler.faces()[size_t(f)];
-      candidates.push(static_cast<int>(w.size()) <= kMaxShaftPoints ? cone_of(w.data(), static_cast<int>(w.size()), 0.0) : Cone{}, f);
+    candidates.resize(faces.size());
+    for (size_t k = 0; k < faces.size(); ++k) {
+      const Polygon& w = culler.faces()[size_t(faces[k])];
+      const int n = static_cast<int>(w.size());
+      candidates.set(k, n <= kMaxShaftPoints ? cone_of(w.data(), n, 0.0) : Cone{}, faces[k]);
     }
   }
 
@@ -1179,17 +1160,25 @@ struct PointVisibility::Impl {
     Block& block = blocks[size_t(block_of[size_t(t)])];
     if (block.stamp != generation) {
       block.stamp = generation;
-      block.near.clear();
-      may_meet(cone_of(block.corners.data(), static_cast<int>(block.corners.size()), margin(block.corners)), candidates);
-      for (size_t k = 0; k < candidates.size(); ++k)
-        if (keep[k]) block.near.push(candidates, k);
+      const Cone cb = cone_of(block.corners.data(), static_cast<int>(block.corners.size()), margin(block.corners));
+      block.near.resize(candidates.size());
+      size_t count = 0;
+      for (size_t k = 0; k < candidates.size(); ++k) {
+        block.near[count] = static_cast<int>(k);
+        count += cb.wide || candidates.may_meet(k, cb);  // no branch
+      }
+      block.near.resize(count);
     }
     std::vector<Vec3>& corners = tile_corners;
     corners.assign(grouped.tile_corners(t), grouped.tile_corners(t) + 4);
-    may_meet(cone_of(corners.data(), 4, margin(corners)), block.near);
-    near.clear();
-    for (size_t k = 0; k < block.near.size(); ++k)
-      if (keep[k]) near.push_back(block.near.face[k]);
+    const Cone ct = cone_of(corners.data(), 4, margin(corners));
+    near.resize(block.near.size());
+    size_t count = 0;
+    for (int k : block.near) {
+      near[count] = candidates.face[size_t(k)];
+      count += ct.wide || candidates.may_meet(size_t(k), ct);
+    }
+    near.resize(count);
     // In face order, as the candidates are: occluders_among keeps it, so the clipping's order is fixed.
     vis->culler().occluders_among(&x.point, 1, corners.data(), 4, near, c.occluders);
     return c.occluders;
@@ -1279,16 +1268,17 @@ double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& no
   for (int k = 0; k < nb; ++k) box.extend(rel[size_t(k)] = b[k] - m.x.point);
   const size_t visible_count = c.visible.size();
   // No visible piece near the patch: all of it is hidden (the pieces cover the tile).
-  bool near_visible = false;
-  for (size_t k = 0; k < visible_count && !near_visible; ++k) near_visible = c.box[k].intersects(box);
-  if (!near_visible) {
+  size_t near_visible = 0;
+  for (size_t k = 0; k < visible_count; ++k) near_visible += c.box[k].intersects(box);
+  if (near_visible == 0) {
     unshadowed = false;
     return 0.0;
   }
   // No hidden piece near it: unshadowed.
-  size_t first_hidden = visible_count;
+  size_t first_hidden = visible_count, near_hidden = 0;
   while (first_hidden < c.box.size() && !c.box[first_hidden].intersects(box)) ++first_hidden;
   if (first_hidden == c.box.size()) return unoccluded;
+  for (size_t k = first_hidden; k < c.box.size(); ++k) near_hidden += c.box[k].intersects(box);
   // The patch's edges' inward planes (each contains the edge and the patch's normal; m·y >= d
   // inside). Pieces are cut to the patch by these planes: a patch's edges are well shaped, while
   // a piece may have an edge of almost no length, whose direction rounding leaves undefined.
@@ -1315,6 +1305,22 @@ double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& no
     for (Vec3& y : part) y -= ((n.dot(y) - offset) / along) * c.normal;
     return lambert_form_factor(at_origin, part.data(), static_cast<int>(part.size()));
   };
+  // The sum over the visible parts (accurate for any result, see below).
+  auto visible_sum = [&]() {
+    double f = 0.0;
+    for (size_t k = 0; k < visible_count; ++k) {
+      if (!c.box[k].intersects(box)) continue;
+      const Polygon* q = clip_to_planes(piece(k), edges, edge_count, c.eps, m.work, m.tmp, m.values);
+      if (q) f += part_factor(q);
+    }
+    return std::min(unoccluded, std::clamp(f, 0.0, 1.0));
+  };
+  // Fewer visible pieces than hidden ones near the patch (it is mostly in shadow): their sum
+  // takes fewer cuts.
+  if (near_visible < near_hidden) {
+    unshadowed = false;  // a shadow is near; the hidden pieces are not cut to tell whether it touches
+    return visible_sum();
+  }
   // The hidden parts of the patch: none of positive area, and the patch is unshadowed.
   bool overlaps = false;
   double hidden = 0.0;
@@ -1331,13 +1337,7 @@ double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& no
   // an error of a few ulp of the result. Otherwise sum the visible parts, which keeps the
   // relative accuracy of a factor far smaller than the unoccluded one.
   if (hidden <= 0.5 * unoccluded) return std::clamp(unoccluded - hidden, 0.0, unoccluded);
-  double f = 0.0;
-  for (size_t k = 0; k < visible_count; ++k) {
-    if (!c.box[k].intersects(box)) continue;
-    const Polygon* q = clip_to_planes(piece(k), edges, edge_count, c.eps, m.work, m.tmp, m.values);
-    if (q) f += part_factor(q);
-  }
-  return std::min(unoccluded, std::clamp(f, 0.0, 1.0));
+  return visible_sum();
 }
 
 }  // namespace photometria
