@@ -14,11 +14,6 @@ Polygon PatchMesh::polygon(int i) const {
   return poly;
 }
 
-void PatchMesh::polygon(int i, Vec3 out[4]) const {
-  const Patch& p = patches[i];
-  for (int k = 0; k < p.corner_count; ++k) out[k] = points[p.corners[k]];
-}
-
 namespace {
 
 struct UnionFind {

@@ -34,7 +34,11 @@ struct PatchMesh {
 
   int size() const { return static_cast<int>(patches.size()); }
   Polygon polygon(int patch) const;
-  void polygon(int patch, Vec3 out[4]) const;
+  // Inline: the fill and the gather call it once per pair.
+  void polygon(int patch, Vec3 out[4]) const {
+    const Patch& p = patches[size_t(patch)];
+    for (int k = 0; k < p.corner_count; ++k) out[k] = points[size_t(p.corners[size_t(k)])];
+  }
 };
 
 PatchMesh subdivide(const Scene& scene, const PatchingOptions& options);

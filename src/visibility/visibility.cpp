@@ -17,6 +17,12 @@ namespace photometria {
 
 namespace {
 
+// Eigen's AlignedBox::intersects, inlined: it is called tens of millions of times per fill.
+inline bool boxes_meet(const Eigen::AlignedBox3d& a, const Eigen::AlignedBox3d& b) {
+  return a.min().x() <= b.max().x() && b.min().x() <= a.max().x() && a.min().y() <= b.max().y() &&
+         b.min().y() <= a.max().y() && a.min().z() <= b.max().z() && b.min().z() <= a.max().z();
+}
+
 double bounding_diagonal(const std::vector<Vec3>& v) {
   if (v.empty()) return 0.0;
   Vec3 lo = v[0], hi = v[0];
@@ -492,11 +498,11 @@ void ShaftCuller::occluders(const Vec3* a, int na, const Vec3* b, int nb, std::v
   stack[top++] = 0;
   while (top > 0) {
     const Node& node = nodes_[stack[--top]];
-    if (!node.box.intersects(shaft.box())) continue;
+    if (!boxes_meet(node.box, shaft.box())) continue;
     if (node.left < 0) {
       for (int k = node.first; k < node.first + node.count; ++k) {
         const int f = order_[k];
-        if (boxes_[f].intersects(shaft.box()) && !(drop_hidden && hidden(f)) && !shaft.misses(faces_[f], normals_[f]))
+        if (boxes_meet(boxes_[f], shaft.box()) && !(drop_hidden && hidden(f)) && !shaft.misses(faces_[f], normals_[f]))
           out.push_back(f);
       }
     } else {
@@ -518,7 +524,7 @@ void ShaftCuller::occluders_among(const Vec3* a, int na, const Vec3* b, int nb, 
   if (na + nb > kMaxShaftPoints) throw std::invalid_argument("ShaftCuller: a shaft of more than 24 points");
   Shaft shaft(a, na, b, nb, tol_);
   for (int f : candidates)
-    if (boxes_[f].intersects(shaft.box()) && !shaft.misses(faces_[f], normals_[f])) out.push_back(f);
+    if (boxes_meet(boxes_[f], shaft.box()) && !shaft.misses(faces_[f], normals_[f])) out.push_back(f);
 }
 
 namespace {
@@ -1269,16 +1275,16 @@ double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& no
   const size_t visible_count = c.visible.size();
   // No visible piece near the patch: all of it is hidden (the pieces cover the tile).
   size_t near_visible = 0;
-  for (size_t k = 0; k < visible_count; ++k) near_visible += c.box[k].intersects(box);
+  for (size_t k = 0; k < visible_count; ++k) near_visible += boxes_meet(c.box[k], box);
   if (near_visible == 0) {
     unshadowed = false;
     return 0.0;
   }
   // No hidden piece near it: unshadowed.
   size_t first_hidden = visible_count, near_hidden = 0;
-  while (first_hidden < c.box.size() && !c.box[first_hidden].intersects(box)) ++first_hidden;
+  while (first_hidden < c.box.size() && !boxes_meet(c.box[first_hidden], box)) ++first_hidden;
   if (first_hidden == c.box.size()) return unoccluded;
-  for (size_t k = first_hidden; k < c.box.size(); ++k) near_hidden += c.box[k].intersects(box);
+  for (size_t k = first_hidden; k < c.box.size(); ++k) near_hidden += boxes_meet(c.box[k], box);
   // The patch's edges' inward planes (each contains the edge and the patch's normal; m·y >= d
   // inside). Pieces are cut to the patch by these planes: a patch's edges are well shaped, while
   // a piece may have an edge of almost no length, whose direction rounding leaves undefined.
@@ -1309,7 +1315,7 @@ double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& no
   auto visible_sum = [&]() {
     double f = 0.0;
     for (size_t k = 0; k < visible_count; ++k) {
-      if (!c.box[k].intersects(box)) continue;
+      if (!boxes_meet(c.box[k], box)) continue;
       const Polygon* q = clip_to_planes(piece(k), edges, edge_count, c.eps, m.work, m.tmp, m.values);
       if (q) f += part_factor(q);
     }
@@ -1325,7 +1331,7 @@ double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& no
   bool overlaps = false;
   double hidden = 0.0;
   for (size_t k = first_hidden; k < c.box.size(); ++k) {
-    if (!c.box[k].intersects(box)) continue;
+    if (!boxes_meet(c.box[k], box)) continue;
     const Polygon* q = clip_to_planes(piece(k), edges, edge_count, c.eps, m.work, m.tmp, m.values);
     if (!q) continue;
     overlaps = true;
