@@ -20,18 +20,6 @@ double plane_tolerance(const PatchMesh& mesh) {
   return 1e-12 * std::max(m, 1e-300);
 }
 
-bool facing_away(const PatchMesh& mesh, int i, int j, double tol) {
-  const Patch& a = mesh.patches[i];
-  const Patch& b = mesh.patches[j];
-  double above_a = -1.0, front_of_b = -1.0;
-  for (int k = 0; k < b.corner_count; ++k)
-    above_a = std::max(above_a, a.normal.dot(mesh.points[b.corners[k]] - a.centroid));
-  if (above_a <= tol) return true;
-  for (int k = 0; k < a.corner_count; ++k)
-    front_of_b = std::max(front_of_b, b.normal.dot(mesh.points[a.corners[k]] - b.centroid));
-  return front_of_b <= tol;
-}
-
 PolygonBatch patch_batch(const PatchMesh& mesh) {
   PolygonBatch batch;
   batch.reserve(mesh.size());

@@ -20,6 +20,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cstdint>
 #include <functional>
 
@@ -76,8 +77,18 @@ struct FormFactorChecks {
 FormFactorChecks check_form_factors(const PatchMesh& mesh, const FormFactors& F);
 
 // True when the pair (receiver i, source j) cannot exchange light: j on/below i's plane or i
-// on/behind j's plane (with a tolerance of `tol` metres).
-bool facing_away(const PatchMesh& mesh, int i, int j, double tol);
+// on/behind j's plane (with a tolerance of `tol` metres). Inline: the fill asks it of every pair.
+inline bool facing_away(const PatchMesh& mesh, int i, int j, double tol) {
+  const Patch& a = mesh.patches[size_t(i)];
+  const Patch& b = mesh.patches[size_t(j)];
+  double above_a = -1.0, front_of_b = -1.0;
+  for (int k = 0; k < b.corner_count; ++k)
+    above_a = std::max(above_a, a.normal.dot(mesh.points[size_t(b.corners[size_t(k)])] - a.centroid));
+  if (above_a <= tol) return true;
+  for (int k = 0; k < a.corner_count; ++k)
+    front_of_b = std::max(front_of_b, b.normal.dot(mesh.points[size_t(a.corners[size_t(k)])] - b.centroid));
+  return front_of_b <= tol;
+}
 
 // Rows are computed into a per-thread dense buffer and stored with FormFactors::set_row, so the
 // matrix never exists in a larger layout than the one asked for.

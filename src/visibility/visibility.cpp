@@ -1086,12 +1086,30 @@ struct PointVisibility::Impl {
     std::vector<int> near;      // the candidates (indices) whose cones may meet the block's
   };
   std::vector<Block> blocks;
-  std::vector<int> block_of;  // per tile
+  std::vector<int> block_of;            // per tile
+  std::vector<unsigned char> bounding;  // per face: every scene corner on one side of its plane
 
   Impl(const Visibility& v, const PatchMesh& mesh, PointCulling culling) : vis(&v), grouped(v.culler(), mesh) {
     tiles.resize(size_t(grouped.tile_count()));
     cones = culling == PointCulling::Cones ||
             (culling == PointCulling::Auto && v.culler().face_count() <= kConeCullingFaces);
+    // Faces with every scene corner on one closed side of their plane (a room's walls) block no
+    // segment between scene points: never candidates.
+    const ShaftCuller& culler = v.culler();
+    bounding.assign(size_t(culler.face_count()), 0);
+    if (cones)
+      for (int f = 0; f < culler.face_count(); ++f) {
+        const Vec3& n = culler.normals()[size_t(f)];
+        const Vec3& w0 = culler.faces()[size_t(f)][0];
+        bool below = true, above = true;
+        for (const Polygon& g : culler.faces())
+          for (const Vec3& y : g) {
+            const double s = n.dot(y - w0);
+            below = below && s <= culler.tolerance();
+            above = above && s >= -culler.tolerance();
+          }
+        bounding[size_t(f)] = !n.isZero() && (below || above);
+      }
     block_of.assign(tiles.size(), -1);
     int block_face = -1;
     for (int t = 0; t < grouped.tile_count(); ++t) {
@@ -1134,8 +1152,9 @@ struct PointVisibility::Impl {
   void find_candidates() {
     candidates_for = generation;
     const ShaftCuller& culler = vis->culler();
-    faces.resize(size_t(culler.face_count()));
-    std::iota(faces.begin(), faces.end(), 0);
+    faces.clear();
+    for (int f = 0; f < culler.face_count(); ++f)
+      if (!bounding[size_t(f)]) faces.push_back(f);
     culler.drop_hidden_faces(x.point, faces);
     candidates.resize(faces.size());
     for (size_t k = 0; k < faces.size(); ++k) {
