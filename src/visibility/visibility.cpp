@@ -262,7 +262,11 @@ class Shaft {
     for (int i = 0; i < plane_count_; ++i) {
       const Plane& p = planes_[i];
       bool outside = true;
-      for (const Vec3& v : w) outside = outside && p.m.dot(v) - p.d >= -tol_;
+      for (const Vec3& v : w)
+        if (!(p.m.dot(v) - p.d >= -tol_)) {
+          outside = false;
+          break;
+        }
       if (outside) return true;
     }
     return false;
