@@ -1183,7 +1183,7 @@ struct PointVisibility::Impl {
     auto margin = [&](const std::vector<Vec3>& corners) {
       double nearest = std::numeric_limits<double>::infinity();
       for (const Vec3& y : corners) nearest = std::min(nearest, (y - x.point).norm());
-      return 8.0 * vis->culler().tolerance() / nearest;
+      return 8.0 * vis->culler().tolerance() / std::max(nearest, 1e-300);  // x on a corner: the cone is wide anyway
     };
     // The block's candidates first, then the tile's among them.
     Block& block = blocks[size_t(block_of[size_t(t)])];
