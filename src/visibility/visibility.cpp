@@ -649,22 +649,22 @@ void GroupedShaftCuller::occluders(int patch, const Vec3* b, int nb, std::vector
 
 namespace {
 
-// Keeps the part of convex polygon `in` where s(y) = m·y − d has the sign `keep` (+1: s >= 0,
-// −1: s <= 0), given the values `s` at its vertices (Sutherland–Hodgman, one plane).
-void clip_keep(const Polygon& in, const std::vector<double>& s, int keep, Polygon& out) {
+// Keeps the part of convex polygon `in` where s(y) = m·y − d >= 0, given the values `s` at its
+// vertices (Sutherland–Hodgman, one plane).
+void clip_keep(const Polygon& in, const std::vector<double>& s, Polygon& out) {
   out.clear();
   const size_t n = in.size();
   for (size_t i = 0; i < n; ++i) {
     const size_t j = i + 1 == n ? 0 : i + 1;  // not (i + 1) % n: a division per vertex
-    const double si = keep * s[i], sj = keep * s[j];
+    const double si = s[i], sj = s[j];
     if (si >= 0) out.push_back(in[i]);
     if ((si > 0 && sj < 0) || (si < 0 && sj > 0)) out.push_back(in[i] + (si / (si - sj)) * (in[j] - in[i]));
   }
   if (out.size() < 3) out.clear();
 }
 
-// Both parts at once: clip_keep(in, s, +1, inside) and clip_keep(in, s, −1, outside), the same
-// points (the crossing si / (si − sj) is the same number with both signs flipped).
+// Both parts at once: inside as clip_keep(in, s, inside), outside the same for −s (the crossing
+// si / (si − sj) is the same number with both signs flipped).
 void split_keep(const Polygon& in, const std::vector<double>& s, Polygon& inside, Polygon& outside) {
   inside.clear();
   outside.clear();
@@ -795,7 +795,7 @@ class ShadowVolumes {
     v.planes.clear();
     const Polygon& w = faces[size_t(f)];
     const int wn = static_cast<int>(w.size());
-    thread_local Polygon wr;
+    Polygon& wr = relative_;
     wr.resize(size_t(wn));
     Vec3 centre = Vec3::Zero();
     v.reach = 0.0;
@@ -839,6 +839,7 @@ class ShadowVolumes {
   long long generation_ = 0;
   std::vector<std::pair<long long, double>> nearest_;
   std::vector<Volume> faces_, solids_;
+  Polygon relative_;  // scratch of face(): its corners relative to x
 };
 
 // Subtracts from `pieces` (convex polygons relative to x, at most `scale` from it) the shadow
@@ -1010,7 +1011,7 @@ const Polygon* clip_to_planes(const Polygon& in, const Plane* planes, int count,
     }
     if (all_in) continue;
     if (all_out) return nullptr;
-    clip_keep(*out, s, +1, tmp);
+    clip_keep(*out, s, tmp);
     work.swap(tmp);
     out = &work;
     if (work.empty()) return nullptr;
@@ -1080,7 +1081,7 @@ struct PointVisibility::Impl {
   long long candidates_for = -1;  // the point they belong to
   ConeSet candidates;
   std::vector<int> faces, near;
-  std::vector<Vec3> directions, tile_corners;
+  std::vector<Vec3> directions;  // scratch of cone_of
   // A block: up to kBlockTiles consecutive tiles of one face (split_tiles makes them
   // neighbours), culled first, so a tile tests only its block's candidates.
   static constexpr int kBlockTiles = 8;
@@ -1180,16 +1181,17 @@ struct PointVisibility::Impl {
     if (candidates_for != generation) find_candidates();
     // The tile's patches lie within the culler's tolerance of its rectangle: widen cones by
     // what that offset can turn a direction.
-    auto margin = [&](const std::vector<Vec3>& corners) {
+    auto margin = [&](const Vec3* corners, size_t n) {
       double nearest = std::numeric_limits<double>::infinity();
-      for (const Vec3& y : corners) nearest = std::min(nearest, (y - x.point).norm());
+      for (size_t k = 0; k < n; ++k) nearest = std::min(nearest, (corners[k] - x.point).norm());
       return 8.0 * vis->culler().tolerance() / std::max(nearest, 1e-300);  // x on a corner: the cone is wide anyway
     };
     // The block's candidates first, then the tile's among them.
     Block& block = blocks[size_t(block_of[size_t(t)])];
     if (block.stamp != generation) {
       block.stamp = generation;
-      const Cone cb = cone_of(block.corners.data(), static_cast<int>(block.corners.size()), margin(block.corners));
+      const Cone cb = cone_of(block.corners.data(), static_cast<int>(block.corners.size()),
+                              margin(block.corners.data(), block.corners.size()));
       block.near.resize(candidates.size());
       size_t count = 0;
       for (size_t k = 0; k < candidates.size(); ++k) {
@@ -1198,9 +1200,8 @@ struct PointVisibility::Impl {
       }
       block.near.resize(count);
     }
-    std::vector<Vec3>& corners = tile_corners;
-    corners.assign(grouped.tile_corners(t), grouped.tile_corners(t) + 4);
-    const Cone ct = cone_of(corners.data(), 4, margin(corners));
+    const Vec3* corners = grouped.tile_corners(t);
+    const Cone ct = cone_of(corners, 4, margin(corners, 4));
     near.resize(block.near.size());
     size_t count = 0;
     for (int k : block.near) {
@@ -1209,7 +1210,7 @@ struct PointVisibility::Impl {
     }
     near.resize(count);
     // In face order, as the candidates are: occluders_among keeps it, so the clipping's order is fixed.
-    vis->culler().occluders_among(&x.point, 1, corners.data(), 4, near, c.occluders);
+    vis->culler().occluders_among(&x.point, 1, corners, 4, near, c.occluders);
     return c.occluders;
   }
 

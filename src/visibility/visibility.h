@@ -207,12 +207,13 @@ enum class VisibilityMethod { Rays, Exact };
 class Visibility;
 
 // Visible form factors from one point to the patches of a mesh: what the centroid rule's fill,
-// the vertex gather and the point view factors ask for, patch after patch. Shaft culling is
-// GroupedShaftCuller's. In exact mode, the rectangle of each tile whose shaft holds occluders
-// is clipped against their shadow volumes once per point (exact_visible_form_factor's
-// subtraction), not each of its up to 16 patches: a patch that no hidden piece overlaps keeps
-// its unoccluded factor, and any other sums Lambert's closed form over its intersections with
-// the visible pieces (the formula is additive over a partition). The result equals
+// the vertex gather and the point view factors ask for, patch after patch. Tiles are those of
+// GroupedShaftCuller. In exact mode, the rectangle of each tile whose shaft holds occluders is
+// clipped against their shadow volumes once per point (exact_visible_form_factor's subtraction;
+// each volume built once per point), not each of its up to 16 patches: a patch that no hidden
+// piece overlaps keeps its unoccluded factor, and any other sums Lambert's closed form over its
+// intersections with the hidden pieces (subtracted) or the visible ones (the formula is additive
+// over a partition). The result equals
 // exact_visible_form_factor(x, patch, occluders of the pair) up to rounding (the pieces are cut
 // along other lines; tests/test_visibility_scenes.cpp). Patches of no tile or of a box tile (a
 // face that is not flat), and ray mode, take Visibility::point_to_patch.
@@ -220,11 +221,13 @@ class Visibility;
 // A tile's occluders, in exact mode, come from one of two cullings that find the same shadows:
 //  - Tree: GroupedShaftCuller's hierarchy (scene face by the AABB tree, then tile).
 //  - Cones: once per point, every face but the back faces of convex solids x is outside of
-//    (ShaftCuller::drop_hidden_faces) gets the cone from x that bounds it (axis and half-angle,
-//    the cone around the corners' directions, which bounds the convex polygon's spherical
-//    projection); a tile's candidates are the faces whose cone meets the tile's (angle between
-//    axes <= sum of half-angles), then ShaftCuller's shaft test of x and the tile. O(faces) per
-//    tile and point, with no tree walk: the faster for scenes of few faces (furnished rooms).
+//    (ShaftCuller::drop_hidden_faces) and faces with every scene corner on one side of their
+//    plane (a room's walls) gets the cone from x that bounds it (axis and half-angle, the cone
+//    around the corners' directions, which bounds the convex polygon's spherical projection); a
+//    tile's candidates are the faces whose cone meets the tile's (angle between axes <= sum of
+//    half-angles), found first for its block of up to 8 neighbouring tiles, then ShaftCuller's
+//    shaft test of x and the tile. O(faces) per block and point, with no tree walk: the faster
+//    for scenes of few faces (furnished rooms).
 //  - Auto: Cones up to kConeCullingFaces scene faces, Tree above.
 // One per thread; not thread-safe.
 enum class PointCulling { Auto, Cones, Tree };
