@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "formfactors/aligned_rectangles.h"
+#include "formfactors/facing.h"
 #include "formfactors/pair_integration.h"
 #include "formfactors/quadrature.h"
 #include "kernels/lambert.h"
@@ -51,6 +52,8 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
   // other entry follows by reciprocity (dense storage: filled in place after the loop).
   const bool mirror = rects && !vis && F.layout() == MatrixLayout::Dense;
   double max_point_sum = 0.0;
+  // The facing test per run of coplanar sources, so most pairs skip facing_away (facing.h).
+  const FacingRuns facing_runs(mesh, tol);
 
   std::vector<GroupedShaftCuller> grouped_cullers;
   std::vector<PointVisibility> point_visibility;  // one-point rules: visibility from the point (see below)
@@ -84,6 +87,8 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
     if (from_point) from_point->set_receiver(Receiver{rule[0].point, pi.normal});
     else if (grouped) grouped->set_receiver(ri, pi.corner_count);
     std::vector<double> row(n, 0.0);  // F_i,· before it is stored
+    std::vector<Facing> facing(static_cast<size_t>(n));
+    facing_runs.classify(i, facing.data());
     // Lambert's kernel from each receiver point to every patch (nq × n), batched, on first need.
     std::vector<double> kernel;
     auto kernel_at = [&](int q, int j) {
@@ -109,7 +114,8 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
           exact_rectangles += 2;
           continue;
         }
-      } else if (facing_away(mesh, i, j, tol)) {
+      } else if (facing[size_t(j)] == Facing::Away ||
+                 (facing[size_t(j)] == Facing::Test && facing_away(mesh, i, j, tol))) {
         ++backfacing;
         continue;
       }

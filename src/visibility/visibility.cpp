@@ -1345,9 +1345,9 @@ double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& no
     }
     return std::min(unoccluded, std::clamp(f, 0.0, 1.0));
   };
-  // Fewer visible pieces than hidden ones near the patch (it is mostly in shadow): their sum
-  // takes fewer cuts.
-  if (near_visible < near_hidden) {
+  // No more visible pieces than hidden ones near the patch: their sum takes no more cuts than the
+  // hidden one, which may have to be followed by it anyway (below).
+  if (near_visible <= near_hidden) {
     unshadowed = false;  // a shadow is near; the hidden pieces are not cut to tell whether it touches
     return visible_sum();
   }

@@ -1,0 +1,100 @@
+#include "formfactors/facing.h"
+
+#include <algorithm>
+
+namespace photometria {
+
+namespace {
+
+// The least and the greatest value of n·y − d over box b.
+struct Range {
+  double low, high;
+};
+Range range_over(const Eigen::AlignedBox3d& b, const Vec3& n, double d) {
+  const Vec3 centre = b.center();
+  const Vec3 half = 0.5 * (b.max() - b.min());
+  const double mid = n.dot(centre) - d;
+  const double spread = n.cwiseAbs().dot(half);
+  return {mid - spread, mid + spread};
+}
+
+}  // namespace
+
+FacingRuns::FacingRuns(const PatchMesh& mesh, double tol) : mesh_(&mesh), tol_(tol) {
+  order_.resize(size_t(mesh.size()));
+  for (int j = 0; j < mesh.size(); ++j) order_[size_t(j)] = j;
+  for (int first = 0; first < mesh.size();) {
+    int end = first + 1;
+    while (end < mesh.size() && mesh.patches[size_t(end)].normal == mesh.patches[size_t(first)].normal) ++end;
+    add_groups(first, end);
+    first = end;
+  }
+}
+
+void FacingRuns::add_groups(int first, int end) {
+  const PatchMesh& mesh = *mesh_;
+  auto centroid = [&](int j) -> const Vec3& { return mesh.patches[size_t(j)].centroid; };
+  if (end - first > kFacingGroup) {
+    Eigen::AlignedBox3d box;
+    for (int k = first; k < end; ++k) box.extend(centroid(order_[size_t(k)]));
+    int axis = 0;
+    (box.max() - box.min()).maxCoeff(&axis);
+    const int mid = first + (end - first) / 2;
+    std::nth_element(order_.begin() + first, order_.begin() + mid, order_.begin() + end,
+                     [&](int a, int b) { return centroid(a)[axis] < centroid(b)[axis]; });
+    add_groups(first, mid);
+    add_groups(mid, end);
+    return;
+  }
+  Group g;
+  g.first = first;
+  g.end = end;
+  g.normal = mesh.patches[size_t(order_[size_t(first)])].normal;
+  for (int k = first; k < end; ++k) {
+    const Patch& p = mesh.patches[size_t(order_[size_t(k)])];
+    Vec3 mean = Vec3::Zero();
+    for (int c = 0; c < p.corner_count; ++c) {
+      const Vec3& y = mesh.points[size_t(p.corners[size_t(c)])];
+      g.corners.extend(y);
+      g.corner_high = std::max(g.corner_high, g.normal.dot(y));
+      mean += y;
+    }
+    mean /= std::max(p.corner_count, 1);
+    g.means.extend(mean);
+    g.mean_low = std::min(g.mean_low, g.normal.dot(mean));
+    g.centroid_low = std::min(g.centroid_low, g.normal.dot(p.centroid));
+    g.centroid_high = std::max(g.centroid_high, g.normal.dot(p.centroid));
+  }
+  groups_.push_back(g);
+}
+
+void FacingRuns::classify(int i, Facing* out) const {
+  const Patch& a = mesh_->patches[size_t(i)];
+  Vec3 mean = Vec3::Zero();
+  for (int k = 0; k < a.corner_count; ++k) mean += mesh_->points[size_t(a.corners[size_t(k)])];
+  mean /= std::max(a.corner_count, 1);
+  const double margin = 0.5 * tol_;
+  const double d_a = a.normal.dot(a.centroid);
+  for (const Group& g : groups_) {
+    // The source above the receiver's plane: max over j's corners of n_a·(y − c_a) > tol.
+    // Some corner is at least as high as its patch's mean.
+    const bool same_plane = g.normal == a.normal;
+    const double above_high = same_plane ? g.corner_high - d_a : range_over(g.corners, a.normal, d_a).high;
+    const double above_low = same_plane ? g.mean_low - d_a : range_over(g.means, a.normal, d_a).low;
+    // The receiver in front of the source's plane: max over i's corners of n_j·(y − c_j) > tol,
+    // with n_j·c_j anywhere in the group's centroid range.
+    double front_high = -1e300;
+    for (int k = 0; k < a.corner_count; ++k)
+      front_high = std::max(front_high, g.normal.dot(mesh_->points[size_t(a.corners[size_t(k)])]));
+    front_high -= g.centroid_low;
+    const double front_low = g.normal.dot(mean) - g.centroid_high;
+    Facing f = Facing::Test;
+    if (above_high <= tol_ - margin || front_high <= tol_ - margin)
+      f = Facing::Away;
+    else if (above_low > tol_ + margin && front_low > tol_ + margin)
+      f = Facing::Toward;
+    for (int k = g.first; k < g.end; ++k) out[order_[size_t(k)]] = f;
+  }
+}
+
+}  // namespace photometria

@@ -1,0 +1,92 @@
+// FacingRuns (formfactors/facing.h): every decided pair agrees with facing_away, and the runs
+// groups decide almost all pairs of a room.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "formfactors/facing.h"
+#include "formfactors/formfactors.h"
+#include "scene/scene.h"
+#include "scene_builders.h"
+#include "validation/bench.h"
+
+using namespace photometria;
+using builders::add_box;
+using builders::unit_cube;
+using validation::bench_room_patching;
+using validation::bench_room_scene;
+
+namespace {
+
+struct Tally {
+  long long away = 0, toward = 0, test = 0, wrong = 0;
+};
+
+Tally check_all_pairs(const PatchMesh& mesh) {
+  const double tol = plane_tolerance(mesh);
+  const FacingRuns runs(mesh, tol);
+  std::vector<Facing> state(static_cast<size_t>(mesh.size()));
+  Tally t;
+  for (int i = 0; i < mesh.size(); ++i) {
+    runs.classify(i, state.data());
+    for (int j = 0; j < mesh.size(); ++j) {
+      if (j == i) continue;
+      const bool away = facing_away(mesh, i, j, tol);
+      switch (state[size_t(j)]) {
+        case Facing::Away:
+          ++t.away, t.wrong += !away;
+          break;
+        case Facing::Toward:
+          ++t.toward, t.wrong += away;
+          break;
+        case Facing::Test:
+          ++t.test;
+          break;
+      }
+    }
+  }
+  return t;
+}
+
+}  // namespace
+
+TEST(FacingRuns, AgreesWithThePairTestInTheBenchRoom) {
+  const PatchMesh mesh = subdivide(bench_room_scene(), bench_room_patching(0.24));
+  const Tally t = check_all_pairs(mesh);
+  EXPECT_EQ(t.wrong, 0);
+  EXPECT_GT(t.away, 0);
+  EXPECT_GT(t.toward, 0);
+  // Left to the pair test: only groups a receiver's plane passes through.
+  const double pairs = double(mesh.size()) * (mesh.size() - 1);
+  EXPECT_LT(double(t.test), 0.05 * pairs) << t.away << " " << t.toward << " " << t.test;
+}
+
+TEST(FacingRuns, AgreesWithThePairTestInTheCornellBox) {
+  const Scene box = load_scene(std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/cornell_box.obj");
+  const PatchMesh mesh = subdivide(box, PatchingOptions{0.1, 0.0});
+  const Tally t = check_all_pairs(mesh);
+  EXPECT_EQ(t.wrong, 0);
+  EXPECT_GT(t.away + t.toward, 20 * t.test) << t.away << " " << t.toward << " " << t.test;
+}
+
+// Patches with a normal of their own form groups of one; boxes
+// touching the receiver's plane (adjacent walls, the floor under a box) are decided right.
+TEST(FacingRuns, AgreesForSinglePatchRunsAndTouchingBoxes) {
+  Scene s = unit_cube();
+  add_box(s, Vec3(0.2, 0.2, 0.0), Vec3(0.5, 0.6, 0.3));
+  add_box(s, Vec3(0.6, 0.1, 0.0), Vec3(0.9, 0.4, 0.7));
+  const PatchMesh mesh = subdivide(s, PatchingOptions{0.1, 0.0});
+  const Tally t = check_all_pairs(mesh);
+  EXPECT_EQ(t.wrong, 0);
+  EXPECT_GT(t.away, 0);
+  EXPECT_GT(t.toward, 0);
+
+  // Every patch a run of its own: tilt each patch's normal by a different amount.
+  PatchMesh tilted = mesh;
+  for (int j = 0; j < tilted.size(); ++j) {
+    Patch& p = tilted.patches[size_t(j)];
+    p.normal = (p.normal + Vec3(1.0, 1.0, 1.0) * (1e-9 * (j % 7))).normalized();
+  }
+  EXPECT_EQ(FacingRuns(tilted, plane_tolerance(tilted)).group_count(), tilted.size());
+  EXPECT_EQ(check_all_pairs(tilted).wrong, 0);
+}
