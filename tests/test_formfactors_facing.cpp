@@ -20,6 +20,12 @@ namespace {
 
 struct Tally {
   long long away = 0, toward = 0, test = 0, wrong = 0;
+  // One pair: the group's answer and the pair test's (`away`).
+  void add(Facing f, bool pair_away) {
+    if (f == Facing::Away) ++away, wrong += !pair_away;
+    if (f == Facing::Toward) ++toward, wrong += pair_away;
+    if (f == Facing::Test) ++test;
+  }
 };
 
 Tally check_all_pairs(const PatchMesh& mesh) {
@@ -32,16 +38,27 @@ Tally check_all_pairs(const PatchMesh& mesh) {
     for (int j = 0; j < mesh.size(); ++j) {
       if (j == i) continue;
       const bool away = facing_away(mesh, i, j, tol);
-      switch (state[size_t(j)]) {
-        case Facing::Away:
-          ++t.away, t.wrong += !away;
-          break;
-        case Facing::Toward:
-          ++t.toward, t.wrong += away;
-          break;
-        case Facing::Test:
-          ++t.test;
-          break;
+      t.add(state[size_t(j)], away);
+    }
+  }
+  return t;
+}
+
+// classify_point against point_facing_away, from every corner of every patch (the vertex
+// gather's output points) with that patch's normal.
+Tally check_all_points(const PatchMesh& mesh) {
+  const double tol = plane_tolerance(mesh);
+  const FacingRuns runs(mesh, tol);
+  std::vector<Facing> state(static_cast<size_t>(mesh.size()));
+  Tally t;
+  for (int i = 0; i < mesh.size(); ++i) {
+    const Patch& p = mesh.patches[size_t(i)];
+    for (int c = 0; c < p.corner_count; ++c) {
+      const Vec3& x = mesh.points[size_t(p.corners[size_t(c)])];
+      runs.classify_point(x, p.normal, state.data());
+      for (int j = 0; j < mesh.size(); ++j) {
+        const bool away = point_facing_away(mesh, x, p.normal, j, tol);
+        t.add(state[size_t(j)], away);
       }
     }
   }
@@ -49,6 +66,18 @@ Tally check_all_pairs(const PatchMesh& mesh) {
 }
 
 }  // namespace
+
+TEST(FacingRuns, PointsAgreeWithTheGathersTest) {
+  for (const PatchMesh& mesh : {subdivide(bench_room_scene(), bench_room_patching(0.24)),
+                                subdivide(load_scene(std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/cornell_box.obj"),
+                                          PatchingOptions{0.25, 0.0})}) {
+    const Tally t = check_all_points(mesh);
+    EXPECT_EQ(t.wrong, 0);
+    EXPECT_GT(t.away, 0);
+    EXPECT_GT(t.toward, 0);
+    EXPECT_GT(t.away + t.toward, 10 * t.test) << t.away << " " << t.toward << " " << t.test;
+  }
+}
 
 TEST(FacingRuns, AgreesWithThePairTestInTheBenchRoom) {
   const PatchMesh mesh = subdivide(bench_room_scene(), bench_room_patching(0.24));

@@ -97,4 +97,23 @@ void FacingRuns::classify(int i, Facing* out) const {
   }
 }
 
+void FacingRuns::classify_point(const Vec3& x, const Vec3& normal, Facing* out) const {
+  const double margin = 0.5 * tol_;
+  const double d_x = normal.dot(x);
+  for (const Group& g : groups_) {
+    // The source above x's plane: max over j's corners of n_x·(y − x) > tol.
+    const bool same_plane = g.normal == normal;
+    const double above_high = same_plane ? g.corner_high - d_x : range_over(g.corners, normal, d_x).high;
+    const double above_low = same_plane ? g.mean_low - d_x : range_over(g.means, normal, d_x).low;
+    // x not behind the source's plane: n_j·(x − c_j) >= −tol, with n_j·c_j in the centroid range.
+    const double ahead_high = g.normal.dot(x) - g.centroid_low, ahead_low = g.normal.dot(x) - g.centroid_high;
+    Facing f = Facing::Test;
+    if (above_high <= tol_ - margin || ahead_high < -tol_ - margin)
+      f = Facing::Away;
+    else if (above_low > tol_ + margin && ahead_low >= -tol_ + margin)
+      f = Facing::Toward;
+    for (int k = g.first; k < g.end; ++k) out[order_[size_t(k)]] = f;
+  }
+}
+
 }  // namespace photometria

@@ -40,6 +40,10 @@ class FacingRuns {
   // out: mesh.size() entries (out[i] is set too, to a meaningless value).
   void classify(int i, Facing* out) const;
 
+  // The same for the vertex gather's test (formfactors.h point_facing_away) from point x with
+  // unit normal `normal`: out[j] says whether point_facing_away(mesh, x, normal, j, tol) holds.
+  void classify_point(const Vec3& x, const Vec3& normal, Facing* out) const;
+
   int group_count() const { return static_cast<int>(groups_.size()); }
 
  private:

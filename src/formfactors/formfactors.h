@@ -90,6 +90,16 @@ inline bool facing_away(const PatchMesh& mesh, int i, int j, double tol) {
   return front_of_b <= tol;
 }
 
+// The vertex gather's test (pipeline/solve.cpp): true when source j cannot light the point x with
+// unit normal `normal`: j wholly on or below x's plane, or x behind j's plane by more than `tol`.
+inline bool point_facing_away(const PatchMesh& mesh, const Vec3& x, const Vec3& normal, int j, double tol) {
+  const Patch& b = mesh.patches[size_t(j)];
+  double above = -1.0;
+  for (int k = 0; k < b.corner_count; ++k)
+    above = std::max(above, normal.dot(mesh.points[size_t(b.corners[size_t(k)])] - x));
+  return above <= tol || b.normal.dot(x - b.centroid) < -tol;
+}
+
 // Rows are computed into a per-thread dense buffer and stored with FormFactors::set_row, so the
 // matrix never exists in a larger layout than the one asked for.
 FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options, FillStats& stats);

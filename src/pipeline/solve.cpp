@@ -10,6 +10,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "formfactors/facing.h"
 #include "formfactors/quadrature.h"
 #include "kernels/lambert.h"
 #include "kernels/lambert_batch.h"
@@ -98,6 +99,8 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
   std::vector<PointVisibility> point_visibility;
   if (vis)
     for (int t = 0; t < omp_get_max_threads(); ++t) point_visibility.emplace_back(*vis, mesh);
+  // The facing test per group of coplanar sources (formfactors/facing.h).
+  const FacingRuns facing_runs(mesh, tol);
 #pragma omp parallel for schedule(dynamic, 16) reduction(+ : evaluated, rays, tested, culled)
   for (int o = 0; o < np; ++o) {
     const OutputPoint& x = r.points[o];
@@ -109,13 +112,16 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
     thread_local std::vector<double> kernel;
     kernel.resize(mesh.size());
     lambert_form_factors(receiver, sources, 0, mesh.size(), kernel.data());
+    thread_local std::vector<Facing> facing;
+    facing.resize(size_t(mesh.size()));
+    facing_runs.classify_point(x.position, x.normal, facing.data());
     for (int j = 0; j < mesh.size(); ++j) {
       double f = kernel[j];
       if (f == 0.0) continue;  // behind the patch, below the horizon, or edge-on: nothing to add
       const Patch& pj = mesh.patches[j];
-      double above = -1.0;
-      for (int k = 0; k < pj.corner_count; ++k) above = std::max(above, x.normal.dot(mesh.points[pj.corners[k]] - x.position));
-      if (above <= tol || pj.normal.dot(x.position - pj.centroid) < -tol) continue;
+      if (facing[size_t(j)] == Facing::Away ||
+          (facing[size_t(j)] == Facing::Test && point_facing_away(mesh, x.position, x.normal, j, tol)))
+        continue;
       ++evaluated;
       if (f > 0.0 && from_point) {
         mesh.polygon(j, src);
