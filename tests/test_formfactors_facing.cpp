@@ -1,4 +1,4 @@
-// FacingRuns (formfactors/facing.h): every decided pair agrees with facing_away, and the runs
+// FacingGroups (formfactors/facing.h): every decided pair agrees with facing_away, and the runs
 // groups decide almost all pairs of a room.
 #include <gtest/gtest.h>
 
@@ -30,7 +30,7 @@ struct Tally {
 
 Tally check_all_pairs(const PatchMesh& mesh) {
   const double tol = plane_tolerance(mesh);
-  const FacingRuns runs(mesh, tol);
+  const FacingGroups runs(mesh, tol);
   std::vector<Facing> state(static_cast<size_t>(mesh.size()));
   Tally t;
   for (int i = 0; i < mesh.size(); ++i) {
@@ -48,7 +48,7 @@ Tally check_all_pairs(const PatchMesh& mesh) {
 // gather's output points) with that patch's normal.
 Tally check_all_points(const PatchMesh& mesh) {
   const double tol = plane_tolerance(mesh);
-  const FacingRuns runs(mesh, tol);
+  const FacingGroups runs(mesh, tol);
   std::vector<Facing> state(static_cast<size_t>(mesh.size()));
   Tally t;
   for (int i = 0; i < mesh.size(); ++i) {
@@ -67,7 +67,7 @@ Tally check_all_points(const PatchMesh& mesh) {
 
 }  // namespace
 
-TEST(FacingRuns, PointsAgreeWithTheGathersTest) {
+TEST(FacingGroups, PointsAgreeWithTheGathersTest) {
   for (const PatchMesh& mesh : {subdivide(bench_room_scene(), bench_room_patching(0.24)),
                                 subdivide(load_scene(std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/cornell_box.obj"),
                                           PatchingOptions{0.25, 0.0})}) {
@@ -79,7 +79,7 @@ TEST(FacingRuns, PointsAgreeWithTheGathersTest) {
   }
 }
 
-TEST(FacingRuns, AgreesWithThePairTestInTheBenchRoom) {
+TEST(FacingGroups, AgreesWithThePairTestInTheBenchRoom) {
   const PatchMesh mesh = subdivide(bench_room_scene(), bench_room_patching(0.24));
   const Tally t = check_all_pairs(mesh);
   EXPECT_EQ(t.wrong, 0);
@@ -90,7 +90,7 @@ TEST(FacingRuns, AgreesWithThePairTestInTheBenchRoom) {
   EXPECT_LT(double(t.test), 0.05 * pairs) << t.away << " " << t.toward << " " << t.test;
 }
 
-TEST(FacingRuns, AgreesWithThePairTestInTheCornellBox) {
+TEST(FacingGroups, AgreesWithThePairTestInTheCornellBox) {
   const Scene box = load_scene(std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/cornell_box.obj");
   const PatchMesh mesh = subdivide(box, PatchingOptions{0.1, 0.0});
   const Tally t = check_all_pairs(mesh);
@@ -100,7 +100,7 @@ TEST(FacingRuns, AgreesWithThePairTestInTheCornellBox) {
 
 // Patches with a normal of their own form groups of one; boxes
 // touching the receiver's plane (adjacent walls, the floor under a box) are decided right.
-TEST(FacingRuns, AgreesForSinglePatchRunsAndTouchingBoxes) {
+TEST(FacingGroups, AgreesForSinglePatchRunsAndTouchingBoxes) {
   Scene s = unit_cube();
   add_box(s, Vec3(0.2, 0.2, 0.0), Vec3(0.5, 0.6, 0.3));
   add_box(s, Vec3(0.6, 0.1, 0.0), Vec3(0.9, 0.4, 0.7));
@@ -116,6 +116,6 @@ TEST(FacingRuns, AgreesForSinglePatchRunsAndTouchingBoxes) {
     Patch& p = tilted.patches[size_t(j)];
     p.normal = (p.normal + Vec3(1.0, 1.0, 1.0) * (1e-9 * (j % 7))).normalized();
   }
-  EXPECT_EQ(FacingRuns(tilted, plane_tolerance(tilted)).group_count(), tilted.size());
+  EXPECT_EQ(FacingGroups(tilted, plane_tolerance(tilted)).group_count(), tilted.size());
   EXPECT_EQ(check_all_pairs(tilted).wrong, 0);
 }

@@ -7,10 +7,7 @@ namespace photometria {
 namespace {
 
 // The least and the greatest value of n·y − d over box b.
-struct Range {
-  double low, high;
-};
-Range range_over(const Eigen::AlignedBox3d& b, const Vec3& n, double d) {
+FacingGroups::Range range_over(const Eigen::AlignedBox3d& b, const Vec3& n, double d) {
   const Vec3 centre = b.center();
   const Vec3 half = 0.5 * (b.max() - b.min());
   const double mid = n.dot(centre) - d;
@@ -20,7 +17,15 @@ Range range_over(const Eigen::AlignedBox3d& b, const Vec3& n, double d) {
 
 }  // namespace
 
-FacingRuns::FacingRuns(const PatchMesh& mesh, double tol) : mesh_(&mesh), tol_(tol) {
+// Bounds on max over a source's corners of n·y − d, for every source of g: at most the highest
+// corner, at least the lowest corner mean (some corner is at least as high as its patch's mean).
+// In g's own plane the exact ranges along the normal; elsewhere over the boxes.
+FacingGroups::Range FacingGroups::height_above(const Group& g, const Vec3& n, double d) {
+  if (g.normal == n) return {g.mean_low - d, g.corner_high - d};
+  return {range_over(g.means, n, d).low, range_over(g.corners, n, d).high};
+}
+
+FacingGroups::FacingGroups(const PatchMesh& mesh, double tol) : mesh_(&mesh), tol_(tol) {
   order_.resize(size_t(mesh.size()));
   for (int j = 0; j < mesh.size(); ++j) order_[size_t(j)] = j;
   for (int first = 0; first < mesh.size();) {
@@ -31,7 +36,7 @@ FacingRuns::FacingRuns(const PatchMesh& mesh, double tol) : mesh_(&mesh), tol_(t
   }
 }
 
-void FacingRuns::add_groups(int first, int end) {
+void FacingGroups::add_groups(int first, int end) {
   const PatchMesh& mesh = *mesh_;
   auto centroid = [&](int j) -> const Vec3& { return mesh.patches[size_t(j)].centroid; };
   if (end - first > kFacingGroup) {
@@ -68,7 +73,7 @@ void FacingRuns::add_groups(int first, int end) {
   groups_.push_back(g);
 }
 
-void FacingRuns::classify(int i, Facing* out) const {
+void FacingGroups::classify(int i, Facing* out) const {
   const Patch& a = mesh_->patches[size_t(i)];
   Vec3 mean = Vec3::Zero();
   for (int k = 0; k < a.corner_count; ++k) mean += mesh_->points[size_t(a.corners[size_t(k)])];
@@ -77,10 +82,7 @@ void FacingRuns::classify(int i, Facing* out) const {
   const double d_a = a.normal.dot(a.centroid);
   for (const Group& g : groups_) {
     // The source above the receiver's plane: max over j's corners of n_a·(y − c_a) > tol.
-    // Some corner is at least as high as its patch's mean.
-    const bool same_plane = g.normal == a.normal;
-    const double above_high = same_plane ? g.corner_high - d_a : range_over(g.corners, a.normal, d_a).high;
-    const double above_low = same_plane ? g.mean_low - d_a : range_over(g.means, a.normal, d_a).low;
+    const Range above = height_above(g, a.normal, d_a);
     // The receiver in front of the source's plane: max over i's corners of n_j·(y − c_j) > tol,
     // with n_j·c_j anywhere in the group's centroid range.
     double front_high = -1e300;
@@ -89,28 +91,26 @@ void FacingRuns::classify(int i, Facing* out) const {
     front_high -= g.centroid_low;
     const double front_low = g.normal.dot(mean) - g.centroid_high;
     Facing f = Facing::Test;
-    if (above_high <= tol_ - margin || front_high <= tol_ - margin)
+    if (above.high <= tol_ - margin || front_high <= tol_ - margin)
       f = Facing::Away;
-    else if (above_low > tol_ + margin && front_low > tol_ + margin)
+    else if (above.low > tol_ + margin && front_low > tol_ + margin)
       f = Facing::Toward;
     for (int k = g.first; k < g.end; ++k) out[order_[size_t(k)]] = f;
   }
 }
 
-void FacingRuns::classify_point(const Vec3& x, const Vec3& normal, Facing* out) const {
+void FacingGroups::classify_point(const Vec3& x, const Vec3& normal, Facing* out) const {
   const double margin = 0.5 * tol_;
   const double d_x = normal.dot(x);
   for (const Group& g : groups_) {
     // The source above x's plane: max over j's corners of n_x·(y − x) > tol.
-    const bool same_plane = g.normal == normal;
-    const double above_high = same_plane ? g.corner_high - d_x : range_over(g.corners, normal, d_x).high;
-    const double above_low = same_plane ? g.mean_low - d_x : range_over(g.means, normal, d_x).low;
+    const Range above = height_above(g, normal, d_x);
     // x not behind the source's plane: n_j·(x − c_j) >= −tol, with n_j·c_j in the centroid range.
     const double ahead_high = g.normal.dot(x) - g.centroid_low, ahead_low = g.normal.dot(x) - g.centroid_high;
     Facing f = Facing::Test;
-    if (above_high <= tol_ - margin || ahead_high < -tol_ - margin)
+    if (above.high <= tol_ - margin || ahead_high < -tol_ - margin)
       f = Facing::Away;
-    else if (above_low > tol_ + margin && ahead_low >= -tol_ + margin)
+    else if (above.low > tol_ + margin && ahead_low >= -tol_ + margin)
       f = Facing::Toward;
     for (int k = g.first; k < g.end; ++k) out[order_[size_t(k)]] = f;
   }

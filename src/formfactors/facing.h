@@ -31,10 +31,14 @@ enum class Facing : unsigned char {
 
 constexpr int kFacingGroup = 16;
 
-class FacingRuns {
+class FacingGroups {
  public:
+  struct Range {  // a least and a greatest value
+    double low, high;
+  };
+
   // tol: the fill's plane tolerance (plane_tolerance(mesh)); mesh must outlive this object.
-  FacingRuns(const PatchMesh& mesh, double tol);
+  FacingGroups(const PatchMesh& mesh, double tol);
 
   // out[j] for every patch j of the mesh, as the source of a pair whose receiver is patch i.
   // out: mesh.size() entries (out[i] is set too, to a meaningless value).
@@ -56,6 +60,7 @@ class FacingRuns {
     // and of its centroids (the pair test measures from them).
     double corner_high = -1e300, mean_low = 1e300, centroid_low = 1e300, centroid_high = -1e300;
   };
+  static Range height_above(const Group& g, const Vec3& n, double d);
   void add_groups(int first, int end);  // splits order_[first, end) of one run into groups
   const PatchMesh* mesh_;
   double tol_;

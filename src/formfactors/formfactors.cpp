@@ -52,8 +52,8 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
   // other entry follows by reciprocity (dense storage: filled in place after the loop).
   const bool mirror = rects && !vis && F.layout() == MatrixLayout::Dense;
   double max_point_sum = 0.0;
-  // The facing test per run of coplanar sources, so most pairs skip facing_away (facing.h).
-  const FacingRuns facing_runs(mesh, tol);
+  // The facing test per group of coplanar sources, so most pairs skip facing_away (facing.h).
+  const FacingGroups facing_runs(mesh, tol);
 
   std::vector<GroupedShaftCuller> grouped_cullers;
   std::vector<PointVisibility> point_visibility;  // one-point rules: visibility from the point (see below)

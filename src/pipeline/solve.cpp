@@ -100,7 +100,7 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
   if (vis)
     for (int t = 0; t < omp_get_max_threads(); ++t) point_visibility.emplace_back(*vis, mesh);
   // The facing test per group of coplanar sources (formfactors/facing.h).
-  const FacingRuns facing_runs(mesh, tol);
+  const FacingGroups facing_runs(mesh, tol);
 #pragma omp parallel for schedule(dynamic, 16) reduction(+ : evaluated, rays, tested, culled)
   for (int o = 0; o < np; ++o) {
     const OutputPoint& x = r.points[o];
