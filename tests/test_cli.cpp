@@ -14,6 +14,7 @@
 
 #include "cli_run.h"
 #include "io/vtu.h"
+#include "scratch_dir.h"
 
 namespace fs = std::filesystem;
 using photometria::VtuArray;
@@ -24,9 +25,7 @@ namespace {
 using cli_test::CliRun;
 
 fs::path scratch() {
-  const fs::path dir = fs::temp_directory_path() / ("photometria_cli_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  return dir;
+  return test_scratch::process_dir("photometria_cli_");
 }
 
 CliRun run(const std::string& args) {

@@ -23,6 +23,7 @@
 #include "io/vtu.h"
 #include "pipeline/memory.h"
 #include "scene/scene.h"
+#include "scratch_dir.h"
 
 namespace fs = std::filesystem;
 
@@ -35,9 +36,7 @@ class BadInput : public ::testing::Test {
  protected:
   void SetUp() override {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() / ("photometria_bad_" + std::string(info->name()) + "_" + std::to_string(getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    dir_ = test_scratch::fresh_dir("photometria_bad_" + std::string(info->name()) + "_");
   }
   void TearDown() override { fs::remove_all(dir_); }
 

@@ -11,6 +11,7 @@
 
 #include "cli_run.h"
 #include "refs.h"
+#include "scratch_dir.h"
 
 namespace fs = std::filesystem;
 
@@ -19,9 +20,7 @@ namespace {
 using cli_test::CliRun;
 
 fs::path scratch() {
-  const fs::path dir = fs::temp_directory_path() / ("photometria_ff_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  return dir;
+  return test_scratch::process_dir("photometria_ff_");
 }
 
 CliRun run(const std::string& args) {

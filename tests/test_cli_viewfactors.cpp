@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "cli_run.h"
+#include "scratch_dir.h"
 
 namespace fs = std::filesystem;
 
@@ -29,9 +30,7 @@ const double kOpposite = 0.19982489569838738, kAdjacent = 0.20004377607540315;
 using cli_test::CliRun;
 
 fs::path scratch() {
-  const fs::path dir = fs::temp_directory_path() / ("photometria_vf_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  return dir;
+  return test_scratch::process_dir("photometria_vf_");
 }
 
 CliRun run(const std::string& args) {

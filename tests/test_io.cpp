@@ -7,13 +7,13 @@
 #include "io/atomic_file.h"
 #include "io/vtu.h"
 #include "util/error.h"
+#include "scratch_dir.h"
 
 using namespace photometria;
 namespace fs = std::filesystem;
 
 TEST(Vtu, RoundTripKeepsPointsCellsAndArrays) {
-  const fs::path dir = fs::temp_directory_path() / "photometria_test_io";
-  fs::create_directories(dir);
+  const fs::path dir = test_scratch::fresh_dir("photometria_test_io_");
   const std::string path = (dir / "grid.vtu").string();
   VtuGrid g;
   g.points = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {2, 0, 0}};
@@ -48,7 +48,7 @@ TEST(AtomicOutput, UnwritableFolderIsAnIoErrorNamingThePath) {
 }
 
 TEST(AtomicOutput, NothingIsLeftWithoutCommit) {
-  const fs::path target = fs::temp_directory_path() / "photometria_atomic.vtu";
+  const fs::path target = test_scratch::fresh_dir("photometria_atomic_") / "out.vtu";
   fs::remove(target);
   std::string temp;
   {

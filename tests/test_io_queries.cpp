@@ -7,6 +7,7 @@
 
 #include "io/queries.h"
 #include "util/error.h"
+#include "scratch_dir.h"
 
 using namespace photometria;
 using nlohmann::json;
@@ -76,8 +77,7 @@ TEST(Queries, ErrorsNameTheQueryIdAndTheValue) {
 }
 
 TEST(Queries, LoadReportsTheLineOfBadJsonAndMissingFiles) {
-  const auto dir = std::filesystem::temp_directory_path() / ("pm_queries_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
+  const auto dir = test_scratch::fresh_dir("pm_queries_");
   const std::string path = (dir / "bad.json").string();
   std::ofstream(path) << "{\"queries\": [\n  {\"id\": \"q1\",\n   \"point\": [0, 0, 0,]\n}]}\n";
   try {

@@ -17,6 +17,7 @@
 #include "geometry/polygon.h"
 #include "scene/scene.h"
 #include "util/error.h"
+#include "scratch_dir.h"
 
 namespace photometria {
 namespace {
@@ -30,10 +31,7 @@ class TempDir {
  public:
   TempDir() {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() /
-           ("photometria_scene_" + std::string(info->test_suite_name()) + "_" + info->name() + "_" + std::to_string(getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    dir_ = test_scratch::fresh_dir("photometria_scene_" + std::string(info->test_suite_name()) + "_" + info->name() + "_");
   }
   ~TempDir() { fs::remove_all(dir_); }
   std::string path(const std::string& name) const { return (dir_ / name).string(); }

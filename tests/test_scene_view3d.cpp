@@ -9,6 +9,7 @@
 #include "scene/scene.h"
 #include "util/error.h"
 #include "viewfactors/viewfactors.h"
+#include "scratch_dir.h"
 
 using namespace photometria;
 namespace fs = std::filesystem;
@@ -18,9 +19,7 @@ namespace {
 const std::string data = std::string(PHOTOMETRIA_SOURCE_DIR) + "/tests/data/";
 
 std::string write_temp(const std::string& name, const std::string& text) {
-  const fs::path dir = fs::temp_directory_path() / ("photometria_vs3_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  const fs::path p = dir / name;
+  const fs::path p = test_scratch::process_dir("photometria_vs3_") / name;
   std::ofstream(p) << text;
   return p.string();
 }

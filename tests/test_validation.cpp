@@ -6,6 +6,7 @@
 #include "refs.h"
 #include "validation/scenes.h"
 #include "validation/suite.h"
+#include "scratch_dir.h"
 
 using namespace photometria;
 using namespace photometria::validation;
@@ -48,8 +49,7 @@ TEST(Validation, QuickSuiteMeetsItsAccuracyAndErrorsFallWithRefinement) {
 }
 
 TEST(Validation, WritesCsvAndPlot) {
-  const auto dir = std::filesystem::temp_directory_path() / "photometria_validation_test";
-  std::filesystem::create_directories(dir);
+  const auto dir = test_scratch::fresh_dir("photometria_validation_test_");
   const std::vector<ValidationRow> rows = {{"a", "x", 1, 1, 1, 1e-3, 1e-4, 0.01}, {"a", "y", 4, 1, 1, 1e-5, 1e-6, 0.1},
                                            {"b", "x", 0, 1, 1, 0.0, 0.0, 0.001}};
   write_validation_csv((dir / "v.csv").string(), rows);

@@ -18,6 +18,7 @@
 #include "geometry/polygon.h"
 #include "patching/patching.h"
 #include "viewfactors/viewfactors.h"
+#include "scratch_dir.h"
 
 namespace fs = std::filesystem;
 namespace pm = photometria;
@@ -47,9 +48,7 @@ void expect_closed(const pm::Scene& s, const std::vector<int>& faces, const std:
 using cli_test::CliRun;
 
 fs::path scratch() {
-  const fs::path dir = fs::temp_directory_path() / ("photometria_bench_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  return dir;
+  return test_scratch::process_dir("photometria_bench_");
 }
 
 CliRun run(const std::string& args) {
