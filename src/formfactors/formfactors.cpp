@@ -86,9 +86,22 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
     PointVisibility* from_point = vis && point_shafts ? &point_visibility[size_t(omp_get_thread_num())] : nullptr;
     if (from_point) from_point->set_receiver(Receiver{rule[0].point, pi.normal});
     else if (grouped) grouped->set_receiver(ri, pi.corner_count);
-    std::vector<double> row(n, 0.0);  // F_i,· before it is stored
-    std::vector<Facing> facing(static_cast<size_t>(n));
-    facing_runs.classify(i, facing.data());
+    // F_i,·: written in place into a dense double matrix (zero until now), else into a buffer.
+    std::vector<double> row_buffer;
+    double* row = F.dense_double_row(i);
+    if (!row) {
+      row_buffer.assign(size_t(n), 0.0);
+      row = row_buffer.data();
+    }
+    // The facing classes of the row, on first need (closed-form pairs do not use them).
+    std::vector<Facing> facing;
+    auto facing_of = [&](int j) {
+      if (facing.empty()) {
+        facing.resize(static_cast<size_t>(n));
+        facing_runs.classify(i, facing.data());
+      }
+      return facing[size_t(j)];
+    };
     // Lambert's kernel from each receiver point to every patch (nq × n), batched, on first need.
     std::vector<double> kernel;
     auto kernel_at = [&](int q, int j) {
@@ -114,8 +127,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
           exact_rectangles += 2;
           continue;
         }
-      } else if (facing[size_t(j)] == Facing::Away ||
-                 (facing[size_t(j)] == Facing::Test && facing_away(mesh, i, j, tol))) {
+      } else if (const Facing fj = facing_of(j); fj == Facing::Away || (fj == Facing::Test && facing_away(mesh, i, j, tol))) {
         ++backfacing;
         continue;
       }
@@ -226,7 +238,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
         if (v > 0.0) row[j] = std::max(0.0, row[j] - rule[q].weight * v * (1.0 - keep));
       }
     }
-    F.set_row(i, row.data());
+    F.set_row(i, row);
     const int done = ++rows_done;
     if (options.progress && omp_get_thread_num() == 0) options.progress(double(done) / n);
   }
@@ -236,6 +248,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
     F.mirror_lower([&](int i, int j) { return rects->eligible(i, j); }, areas.data());
     // The rows are complete only now; without visibility every point's sum is its row's sum.
     max_point_sum = 0.0;
+#pragma omp parallel for schedule(static) reduction(max : max_point_sum)
     for (int i = 0; i < n; ++i) max_point_sum = std::max(max_point_sum, F.row_sum(i));
   }
   stats.pairs_evaluated += evaluated;

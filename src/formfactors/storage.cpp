@@ -1,6 +1,10 @@
 #include "formfactors/storage.h"
 
+#include <sys/mman.h>
+
 #include <algorithm>
+#include <cstdint>
+#include <cstring>
 #include <stdexcept>
 
 #include "util/error.h"
@@ -53,15 +57,55 @@ MatrixLayout choose_layout(MatrixLayout requested, MatrixPrecision precision, do
              : MatrixLayout::Dense;
 }
 
+template <class T>
+FormFactors::DenseBlock<T> FormFactors::allocate_dense(int n) {
+  const size_t count = size_t(n) * size_t(n), bytes = count * sizeof(T);
+  // calloc, not malloc + memset: glibc serves a large block with fresh pages from mmap, which
+  // the kernel zeroes on first touch (during the fill, on every thread), so nothing is written
+  // twice. Small blocks are zeroed by calloc itself.
+  DenseBlock<T> block(static_cast<T*>(std::calloc(std::max<size_t>(count, 1), sizeof(T))));
+  if (!block) throw std::bad_alloc();
+  // A large block also asks for transparent huge pages (2 MiB: 512 times fewer page faults and
+  // TLB entries for the N² entries that the fill writes and every solver sweep streams; Debian's
+  // default THP mode is "madvise"). Advice only: where refused, small pages are used.
+  constexpr size_t kHuge = size_t(2) << 20;
+  if (bytes >= 4 * kHuge) {
+    const uintptr_t begin = (reinterpret_cast<uintptr_t>(block.get()) + kHuge - 1) & ~(kHuge - 1);
+    const uintptr_t end = (reinterpret_cast<uintptr_t>(block.get()) + bytes) & ~(kHuge - 1);
+    if (end > begin) (void)::madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
+  }
+  return block;
+}
+
+FormFactors::FormFactors(const FormFactors& other)
+    : n_(other.n_), layout_(other.layout_), precision_(other.precision_), columns_(other.columns_),
+      values_double_(other.values_double_), values_float_(other.values_float_) {
+  const size_t count = size_t(n_) * size_t(n_);
+  if (other.dense_double_) {
+    dense_double_ = allocate_dense<double>(n_);
+    std::memcpy(dense_double_.get(), other.dense_double_.get(), count * sizeof(double));
+  }
+  if (other.dense_float_) {
+    dense_float_ = allocate_dense<float>(n_);
+    std::memcpy(dense_float_.get(), other.dense_float_.get(), count * sizeof(float));
+  }
+}
+
+FormFactors& FormFactors::operator=(const FormFactors& other) {
+  if (this != &other) *this = FormFactors(other);
+  return *this;
+}
+
+
 FormFactors::FormFactors(int n, MatrixLayout layout, MatrixPrecision precision)
     : n_(n), layout_(layout), precision_(precision) {
   if (layout == MatrixLayout::Auto) throw std::logic_error("FormFactors: resolve the layout before allocating");
   if (precision == MatrixPrecision::Auto) throw std::logic_error("FormFactors: resolve the precision before allocating");
   if (layout == MatrixLayout::Dense) {
     if (precision == MatrixPrecision::Double)
-      dense_double_ = FormFactorMatrix::Zero(n, n);
+      dense_double_ = allocate_dense<double>(n);
     else
-      dense_float_.setZero(n, n);
+      dense_float_ = allocate_dense<float>(n);
     return;
   }
   columns_.resize(n);
@@ -72,7 +116,9 @@ FormFactors::FormFactors(int n, MatrixLayout layout, MatrixPrecision precision)
 }
 
 FormFactors::FormFactors(FormFactorMatrix dense)
-    : n_(static_cast<int>(dense.rows())), dense_double_(std::move(dense)) {}
+    : n_(static_cast<int>(dense.rows())), dense_double_(allocate_dense<double>(n_)) {
+  Eigen::Map<FormFactorMatrix>(dense_double_.get(), n_, n_) = dense;
+}
 
 std::string FormFactors::description() const {
   return std::string(layout_name(layout_)) + " " + precision_name(precision_);
@@ -88,17 +134,20 @@ long long FormFactors::nonzeros() const {
     for (const auto& c : columns_) count += static_cast<long long>(c.size());
     return count;
   }
+  const size_t entries = size_t(n_) * size_t(n_);
   if (precision_ == MatrixPrecision::Double)
-    return static_cast<long long>((dense_double_.array() != 0.0).count());
-  return static_cast<long long>((dense_float_.array() != 0.0f).count());
+    return static_cast<long long>(std::count_if(dense_double_.get(), dense_double_.get() + entries, [](double f) { return f != 0.0; }));
+  return static_cast<long long>(std::count_if(dense_float_.get(), dense_float_.get() + entries, [](float f) { return f != 0.0f; }));
 }
 
 void FormFactors::set_row(int i, const double* values) {
   if (layout_ == MatrixLayout::Dense) {
-    if (precision_ == MatrixPrecision::Double)
-      dense_double_.row(i) = Eigen::Map<const Eigen::RowVectorXd>(values, n_);
-    else
-      dense_float_.row(i) = Eigen::Map<const Eigen::RowVectorXd>(values, n_).cast<float>();
+    if (precision_ == MatrixPrecision::Double) {
+      if (values != ddata(i)) std::memcpy(ddata(i), values, size_t(n_) * sizeof(double));
+    } else {
+      float* row = fdata(i);
+      for (int j = 0; j < n_; ++j) row[j] = float(values[j]);
+    }
     return;
   }
   std::vector<int32_t>& c = columns_[i];
@@ -119,7 +168,7 @@ void FormFactors::set_row(int i, const double* values) {
 
 double FormFactors::operator()(int i, int j) const {
   if (layout_ == MatrixLayout::Dense)
-    return precision_ == MatrixPrecision::Double ? dense_double_(i, j) : double(dense_float_(i, j));
+    return precision_ == MatrixPrecision::Double ? ddata(i)[j] : double(fdata(i)[j]);
   const std::vector<int32_t>& c = columns_[i];
   const auto it = std::lower_bound(c.begin(), c.end(), j);
   if (it == c.end() || *it != j) return 0.0;
@@ -129,10 +178,10 @@ double FormFactors::operator()(int i, int j) const {
 
 double FormFactors::row_dot(int i, const Eigen::VectorXd& x) const {
   if (layout_ == MatrixLayout::Dense) {
-    if (precision_ == MatrixPrecision::Double) return dense_double_.row(i).dot(x);
+    if (precision_ == MatrixPrecision::Double) return Eigen::Map<const Eigen::RowVectorXd>(ddata(i), n_).dot(x.transpose());
     // Eight partial sums: one running sum would wait on each addition's latency (the compiler
     // may not reorder a floating-point sum), eight independent ones vectorize.
-    const float* row = dense_float_.data() + size_t(i) * size_t(n_);
+    const float* row = fdata(i);
     const double* xs = x.data();
     double acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};
     int j = 0;
@@ -162,15 +211,18 @@ double FormFactors::row_sum(int i) const {
 
 void FormFactors::add_row_to(int i, double alpha, Eigen::VectorXd& y) const {
   if (layout_ == MatrixLayout::Dense && precision_ == MatrixPrecision::Double) {
-    y.noalias() += alpha * dense_double_.row(i).transpose();
+    y.noalias() += alpha * Eigen::Map<const Eigen::VectorXd>(ddata(i), n_);
     return;
   }
   for_each_in_row(i, [&](int j, double f) { y[j] += alpha * f; });
 }
 
 FormFactorMatrix FormFactors::to_dense() const {
-  if (layout_ == MatrixLayout::Dense && precision_ == MatrixPrecision::Double) return dense_double_;
-  if (layout_ == MatrixLayout::Dense) return dense_float_.cast<double>();
+  if (layout_ == MatrixLayout::Dense && precision_ == MatrixPrecision::Double)
+    return Eigen::Map<const FormFactorMatrix>(dense_double_.get(), n_, n_);
+  if (layout_ == MatrixLayout::Dense)
+    return Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(dense_float_.get(), n_, n_)
+        .cast<double>();
   FormFactorMatrix d = FormFactorMatrix::Zero(n_, n_);
   for (int i = 0; i < n_; ++i) for_each_in_row(i, [&](int j, double f) { d(i, j) = f; });
   return d;

@@ -16,6 +16,8 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <cstdint>
+#include <cstdlib>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -45,6 +47,10 @@ MatrixLayout choose_layout(MatrixLayout requested, MatrixPrecision precision, do
 class FormFactors {
  public:
   FormFactors() = default;
+  FormFactors(FormFactors&&) = default;
+  FormFactors& operator=(FormFactors&&) = default;
+  FormFactors(const FormFactors& other);  // deep copy
+  FormFactors& operator=(const FormFactors& other);
   // An n × n zero matrix in the given layout and precision (Auto is not allowed here: resolve it
   // first; std::logic_error).
   FormFactors(int n, MatrixLayout layout, MatrixPrecision precision);
@@ -62,6 +68,9 @@ class FormFactors {
   // Replaces row i with `values` (n entries; zeros are not stored in the sparse layouts).
   // Rows may be set concurrently from different threads (distinct i).
   void set_row(int i, const double* values);
+  // Dense double only: row i's n entries, written in place by the fill (saves a row buffer and
+  // its copy); nullptr for the other layouts. set_row(i, dense_double_row(i)) is a no-op.
+  double* dense_double_row(int i) { return dense_double_ && layout_ == MatrixLayout::Dense ? ddata(i) : nullptr; }
 
   double operator()(int i, int j) const;         // F_ij (sparse: binary search in row i)
   double row_dot(int i, const Eigen::VectorXd& x) const;  // Σ_j F_ij x_j
@@ -83,8 +92,19 @@ class FormFactors {
   int n_ = 0;
   MatrixLayout layout_ = MatrixLayout::Dense;
   MatrixPrecision precision_ = MatrixPrecision::Double;
-  FormFactorMatrix dense_double_;
-  Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> dense_float_;
+  // Dense entries, row-major (F_ij at i·N + j), from calloc: a large block is fresh zero pages
+  // from the kernel, so nothing is written before the fill (see storage.cpp, allocate_dense).
+  struct FreeDeleter {
+    void operator()(void* p) const { std::free(p); }
+  };
+  template <class T>
+  using DenseBlock = std::unique_ptr<T[], FreeDeleter>;
+  template <class T>
+  static DenseBlock<T> allocate_dense(int n);
+  DenseBlock<double> dense_double_;
+  DenseBlock<float> dense_float_;
+  double* ddata(int i) const { return dense_double_.get() + size_t(i) * size_t(n_); }
+  float* fdata(int i) const { return dense_float_.get() + size_t(i) * size_t(n_); }
   std::vector<std::vector<int32_t>> columns_;   // sparse: per row, ascending columns
   std::vector<std::vector<double>> values_double_;
   std::vector<std::vector<float>> values_float_;
@@ -93,10 +113,13 @@ class FormFactors {
 template <class Fn>
 void FormFactors::for_each_in_row(int i, Fn&& fn) const {
   if (layout_ == MatrixLayout::Dense) {
-    if (precision_ == MatrixPrecision::Double)
-      for (int j = 0; j < n_; ++j) fn(j, dense_double_(i, j));
-    else
-      for (int j = 0; j < n_; ++j) fn(j, double(dense_float_(i, j)));
+    if (precision_ == MatrixPrecision::Double) {
+      const double* row = ddata(i);
+      for (int j = 0; j < n_; ++j) fn(j, row[j]);
+    } else {
+      const float* row = fdata(i);
+      for (int j = 0; j < n_; ++j) fn(j, double(row[j]));
+    }
     return;
   }
   const std::vector<int32_t>& c = columns_[i];
@@ -119,9 +142,9 @@ void FormFactors::mirror_lower(Pred&& mirrored, const double* areas) {
         for (int j = bj * kTile; j < std::min(i, j1); ++j) {
           if (!mirrored(i, j)) continue;
           if (dbl)
-            dense_double_(i, j) = dense_double_(j, i) * areas[j] / areas[i];
+            ddata(i)[j] = ddata(j)[i] * areas[j] / areas[i];
           else
-            dense_float_(i, j) = float(double(dense_float_(j, i)) * areas[j] / areas[i]);
+            fdata(i)[j] = float(double(fdata(j)[i]) * areas[j] / areas[i]);
         }
     }
 }
