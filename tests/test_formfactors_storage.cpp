@@ -144,3 +144,40 @@ TEST(FormFactorStorage, FillAndSolversAgreeAcrossLayouts) {
       }
     }
 }
+
+// A new matrix is zero in every layout, also when it is large enough for the huge-page path
+// (> 8 MiB of entries, from calloc without a memset); a copy owns its entries.
+TEST(FormFactorStorage, NewMatricesAreZeroAndCopiesAreDeep) {
+  for (const int n : {5, 1100})  // 1100² doubles = 9.2 MiB, floats 4.6 MiB
+    for (MatrixLayout layout : kLayouts)
+      for (MatrixPrecision precision : kPrecisions) {
+        SCOPED_TRACE(std::to_string(n) + " " + layout_name(layout) + " " + precision_name(precision));
+        FormFactors f(n, layout, precision);
+        EXPECT_EQ(f.nonzeros(), 0);
+        for (int i = 0; i < n; i += n / 5) EXPECT_EQ(f.row_sum(i), 0.0);
+        std::vector<double> row(static_cast<size_t>(n), 0.0);
+        row[1] = 0.25;
+        f.set_row(n - 1, row.data());
+        FormFactors copy(f);
+        row[1] = 0.5;
+        f.set_row(n - 1, row.data());
+        EXPECT_EQ(copy(n - 1, 1), 0.25);
+        EXPECT_EQ(f(n - 1, 1), 0.5);
+        copy = f;
+        EXPECT_EQ(copy(n - 1, 1), 0.5);
+        EXPECT_EQ(copy.nonzeros(), 1);
+      }
+}
+
+// The fill writes a dense double matrix's rows in place; the other layouts have no such row.
+TEST(FormFactorStorage, DenseDoubleRowsAreWrittenInPlace) {
+  FormFactors dense(4, MatrixLayout::Dense, MatrixPrecision::Double);
+  double* row = dense.dense_double_row(2);
+  ASSERT_NE(row, nullptr);
+  row[3] = 0.125;
+  dense.set_row(2, row);  // a no-op, as the fill calls it
+  EXPECT_EQ(dense(2, 3), 0.125);
+  EXPECT_EQ(dense.row_sum(2), 0.125);
+  EXPECT_EQ(FormFactors(4, MatrixLayout::Dense, MatrixPrecision::Float).dense_double_row(0), nullptr);
+  EXPECT_EQ(FormFactors(4, MatrixLayout::Sparse, MatrixPrecision::Double).dense_double_row(0), nullptr);
+}
