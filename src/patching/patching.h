@@ -39,6 +39,31 @@ struct PatchMesh {
     const Patch& p = patches[size_t(patch)];
     for (int k = 0; k < p.corner_count; ++k) out[k] = points[size_t(p.corners[size_t(k)])];
   }
+  // Asks the CPU to fetch patch `ahead`'s record and patch `near`'s corner points into the cache
+  // (no effect on results). A fill row or a gather point visits every patch once, with visibility
+  // work in between that evicts what it read, so a large mesh's patches and points (22,000
+  // patches: 1.8 MB and 0.6 MB) arrive from memory one miss at a time unless asked for early.
+  // Call with ahead > near > the patch in hand; out-of-range indices are ignored.
+  void prefetch(int ahead, int near) const {
+    // As an asm statement: GCC treats __builtin_prefetch as free of side effects, so a function
+    // made only of them counts as pure and its calls are deleted.
+    auto prefetch_line = [](const void* address) {
+#if defined(__x86_64__) || defined(__i386__)
+      asm volatile("prefetcht0 %0" : : "m"(*static_cast<const char*>(address)));
+#else
+      __builtin_prefetch(address);
+#endif
+    };
+    if (ahead < size()) {
+      const char* record = reinterpret_cast<const char*>(&patches[size_t(ahead)]);
+      prefetch_line(record);
+      prefetch_line(record + sizeof(Patch) - 1);
+    }
+    if (near < size()) {
+      const Patch& p = patches[size_t(near)];
+      for (int k = 0; k < p.corner_count; ++k) prefetch_line(&points[size_t(p.corners[size_t(k)])]);
+    }
+  }
 };
 
 PatchMesh subdivide(const Scene& scene, const PatchingOptions& options);

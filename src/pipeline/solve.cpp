@@ -116,6 +116,7 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
     facing.resize(size_t(mesh.size()));
     facing_runs.classify_point(x.position, x.normal, facing.data());
     for (int j = 0; j < mesh.size(); ++j) {
+      mesh.prefetch(j + 16, j + 8);
       double f = kernel[j];
       if (f == 0.0) continue;  // behind the patch, below the horizon, or edge-on: nothing to add
       const Patch& pj = mesh.patches[j];
