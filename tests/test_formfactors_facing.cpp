@@ -119,3 +119,47 @@ TEST(FacingGroups, AgreesForSinglePatchRunsAndTouchingBoxes) {
   EXPECT_EQ(FacingGroups(tilted, plane_tolerance(tilted)).group_count(), tilted.size());
   EXPECT_EQ(check_all_pairs(tilted).wrong, 0);
 }
+
+// The kernel restricted to facing sources: every source not classified Away gets the full
+// kernel's value bit for bit; a run of at least 8 Away sources is skipped (0), a shorter one is
+// evaluated with its neighbours.
+TEST(FacingGroups, KernelForFacingSourcesEqualsTheFullKernel) {
+  const PatchMesh mesh = subdivide(bench_room_scene(), bench_room_patching(0.24));
+  const FacingGroups groups(mesh, plane_tolerance(mesh));
+  const PolygonBatch sources = patch_batch(mesh);
+  const int n = mesh.size();
+  std::vector<Facing> facing(static_cast<size_t>(n));
+  std::vector<double> full(static_cast<size_t>(n)), restricted(static_cast<size_t>(n));
+  long long away = 0;
+  for (int i = 0; i < n; i += 7) {
+    const Patch& p = mesh.patches[size_t(i)];
+    groups.classify_point(p.centroid, p.normal, facing.data());
+    const Receiver at{p.centroid, p.normal};
+    lambert_form_factors(at, sources, full.data());
+    std::fill(restricted.begin(), restricted.end(), -1.0);
+    lambert_form_factors_facing(at, sources, facing.data(), restricted.data());
+    for (int j = 0; j < n; ++j) {
+      ASSERT_GE(restricted[size_t(j)], 0.0) << i << " " << j;  // every entry written
+      if (facing[size_t(j)] == Facing::Away) ++away;
+      else ASSERT_EQ(restricted[size_t(j)], full[size_t(j)]) << i << " " << j;  // bit for bit
+    }
+  }
+  EXPECT_GT(away, 0);
+  // Runs forced on sources the point sees: 10 Away in a row are skipped, 3 are not.
+  const Patch& floor_patch = mesh.patches[0];
+  const Receiver up{floor_patch.centroid + 0.5 * floor_patch.normal, floor_patch.normal};
+  lambert_form_factors(up, sources, full.data());
+  int first = -1;  // 10 consecutive sources with non-zero factors
+  for (int j = 0, run = 0; j < n && first < 0; ++j) {
+    run = full[size_t(j)] > 0.0 ? run + 1 : 0;
+    if (run == 10) first = j - 9;
+  }
+  ASSERT_GE(first, 0);
+  std::fill(facing.begin(), facing.end(), Facing::Toward);
+  std::fill(facing.begin() + first, facing.begin() + first + 10, Facing::Away);
+  lambert_form_factors_facing(up, sources, facing.data(), restricted.data());
+  for (int j = first; j < first + 10; ++j) EXPECT_EQ(restricted[size_t(j)], 0.0);
+  std::fill(facing.begin() + first + 3, facing.begin() + first + 10, Facing::Toward);
+  lambert_form_factors_facing(up, sources, facing.data(), restricted.data());
+  for (int j = first; j < first + 10; ++j) EXPECT_EQ(restricted[size_t(j)], full[size_t(j)]);
+}

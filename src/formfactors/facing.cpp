@@ -116,4 +116,26 @@ void FacingGroups::classify_point(const Vec3& x, const Vec3& normal, Facing* out
   }
 }
 
+void lambert_form_factors_facing(const Receiver& receiver, const PolygonBatch& sources, const Facing* facing, double* out) {
+  constexpr int kMinSkip = 8;  // shorter runs of Away sources are cheaper to evaluate than to split at
+  const int n = sources.size;
+  int begin = 0;  // start of the sources still to evaluate
+  int j = 0;
+  while (j < n) {
+    if (facing[j] != Facing::Away) {
+      ++j;
+      continue;
+    }
+    int end = j;
+    while (end < n && facing[end] == Facing::Away) ++end;
+    if (end - j >= kMinSkip || end == n) {
+      lambert_form_factors(receiver, sources, begin, j, out + begin);
+      std::fill(out + j, out + end, 0.0);
+      begin = end;
+    }
+    j = end;
+  }
+  lambert_form_factors(receiver, sources, begin, n, out + begin);
+}
+
 }  // namespace photometria

@@ -19,6 +19,7 @@
 #include <Eigen/Geometry>
 #include <vector>
 
+#include "kernels/lambert_batch.h"
 #include "patching/patching.h"
 
 namespace photometria {
@@ -67,5 +68,12 @@ class FacingGroups {
   std::vector<int> order_;  // patch indices, group by group
   std::vector<Group> groups_;
 };
+
+// lambert_form_factors(receiver, sources, out) for the sources whose class in `facing` is not
+// Away; runs of at least 8 consecutive Away sources are skipped (their out[j] is 0 — the pair
+// exchanges no light, and the caller does not read it), isolated ones are evaluated with their
+// neighbours (SIMD blocks are 4 wide). Each value is the batched kernel's for that source alone,
+// so they equal lambert_form_factors' bit for bit. out: sources.size entries.
+void lambert_form_factors_facing(const Receiver& receiver, const PolygonBatch& sources, const Facing* facing, double* out);
 
 }  // namespace photometria

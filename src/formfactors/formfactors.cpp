@@ -54,6 +54,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
   double max_point_sum = 0.0;
   // The facing test per group of coplanar sources, so most pairs skip facing_away (facing.h).
   const FacingGroups facing_runs(mesh, tol);
+  const bool prefetch = mesh.prefetch_pays() && !mirror;  // (mirrored rows read no patch records)
 
   std::vector<GroupedShaftCuller> grouped_cullers;
   std::vector<PointVisibility> point_visibility;  // one-point rules: visibility from the point (see below)
@@ -107,13 +108,20 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
     auto kernel_at = [&](int q, int j) {
       if (kernel.empty()) {
         kernel.resize(size_t(nq) * n);
-        for (int k = 0; k < nq; ++k)
-          lambert_form_factors(Receiver{rule[k].point, pi.normal}, sources, 0, n, kernel.data() + size_t(k) * n);
+        // Only for the sources that face the receiver: the others are never read, except that
+        // closed-form pairs (which skip the facing test) may be read, so then for all.
+        if (!rects && facing.empty()) facing_of(0);
+        for (int k = 0; k < nq; ++k) {
+          const Receiver at{rule[k].point, pi.normal};
+          double* out = kernel.data() + size_t(k) * n;
+          if (rects) lambert_form_factors(at, sources, 0, n, out);
+          else lambert_form_factors_facing(at, sources, facing.data(), out);
+        }
       }
       return kernel[size_t(q) * n + j];
     };
     for (int j = 0; j < n; ++j) {
-      if (!mirror) mesh.prefetch(j + 16, j + 8);  // (mirrored rows read no patch records)
+      if (prefetch) mesh.prefetch(j + 16, j + 8);
       if (j == i) continue;
       const bool analytic = rects && rects->eligible(i, j);
       double area_factor = 0.0;

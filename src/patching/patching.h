@@ -43,7 +43,9 @@ struct PatchMesh {
   // (no effect on results). A fill row or a gather point visits every patch once, with visibility
   // work in between that evicts what it read, so a large mesh's patches and points (22,000
   // patches: 1.8 MB and 0.6 MB) arrive from memory one miss at a time unless asked for early.
-  // Call with ahead > near > the patch in hand; out-of-range indices are ignored.
+  // Call with ahead > near > the patch in hand; out-of-range indices are ignored. Worth it only
+  // where the patches outgrow the core's cache (prefetch_pays()); below, it costs instructions only.
+  bool prefetch_pays() const { return size() >= 4096; }  // 4,096 patches: 320 KiB of records + their points
   void prefetch(int ahead, int near) const {
     // As an asm statement: GCC treats __builtin_prefetch as free of side effects, so a function
     // made only of them counts as pure and its calls are deleted.

@@ -101,6 +101,7 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
     for (int t = 0; t < omp_get_max_threads(); ++t) point_visibility.emplace_back(*vis, mesh);
   // The facing test per group of coplanar sources (formfactors/facing.h).
   const FacingGroups facing_runs(mesh, tol);
+  const bool prefetch = mesh.prefetch_pays();
 #pragma omp parallel for schedule(dynamic, 16) reduction(+ : evaluated, rays, tested, culled)
   for (int o = 0; o < np; ++o) {
     const OutputPoint& x = r.points[o];
@@ -109,14 +110,15 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
     const Receiver receiver{x.position, x.normal, x.approach};
     PointVisibility* from_point = vis ? &point_visibility[size_t(omp_get_thread_num())] : nullptr;
     if (from_point) from_point->set_receiver(receiver);
-    thread_local std::vector<double> kernel;
-    kernel.resize(mesh.size());
-    lambert_form_factors(receiver, sources, 0, mesh.size(), kernel.data());
     thread_local std::vector<Facing> facing;
     facing.resize(size_t(mesh.size()));
     facing_runs.classify_point(x.position, x.normal, facing.data());
+    // The kernel for the sources that face the point (0 for the others, which are skipped below).
+    thread_local std::vector<double> kernel;
+    kernel.resize(mesh.size());
+    lambert_form_factors_facing(receiver, sources, facing.data(), kernel.data());
     for (int j = 0; j < mesh.size(); ++j) {
-      mesh.prefetch(j + 16, j + 8);
+      if (prefetch) mesh.prefetch(j + 16, j + 8);
       double f = kernel[j];
       if (f == 0.0) continue;  // behind the patch, below the horizon, or edge-on: nothing to add
       const Patch& pj = mesh.patches[j];
