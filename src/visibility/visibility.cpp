@@ -600,6 +600,7 @@ GroupedShaftCuller::GroupedShaftCuller(const ShaftCuller& culler, const PatchMes
       }
       const int t = static_cast<int>(tiles_.size());
       tiles_.push_back(tile);
+      tile_corner_counts_.push_back(static_cast<unsigned char>(tile.corner_count));
       for (int k = first; k < first + count; ++k) tile_of_patch_[size_t(patches[size_t(k)])] = t;
     }
   }
@@ -1031,8 +1032,7 @@ struct PointVisibility::Impl {
     std::vector<Eigen::AlignedBox3d> box;  // per piece, visible ones first, then hidden
     Vec3 normal;                           // the tile's unit normal
     double eps = 0.0;
-    long long listed = -1;   // cone culling: the point `occluders` belong to
-    std::vector<int> occluders;
+    std::vector<int> occluders;  // cone culling: listed in `listed` (below)
   };
   // The cone from x around a polygon's corners: unit axis, cosine and sine of the half-angle;
   // wide when the half-angle may reach 90° (or x is on a corner): then it bounds nothing.
@@ -1092,6 +1092,10 @@ struct PointVisibility::Impl {
   };
   std::vector<Block> blocks;
   std::vector<int> block_of;            // per tile
+  // Per tile, compact (read for every patch, where a TileClip would be a cache miss on large
+  // meshes): the point its cone-culled occluder list belongs to, and whether that list is empty.
+  std::vector<long long> listed;
+  std::vector<unsigned char> no_occluders;
   std::vector<unsigned char> bounding;  // per face: every scene corner on one side of its plane
 
   Impl(const Visibility& v, const PatchMesh& mesh, PointCulling culling) : vis(&v), grouped(v.culler(), mesh) {
@@ -1116,6 +1120,8 @@ struct PointVisibility::Impl {
         bounding[size_t(f)] = !n.isZero() && (below || above);
       }
     block_of.assign(tiles.size(), -1);
+    listed.assign(tiles.size(), -1);
+    no_occluders.assign(tiles.size(), 0);
     int block_face = -1;
     for (int t = 0; t < grouped.tile_count(); ++t) {
       if (grouped.tile_corner_count(t) != 4) continue;
@@ -1127,17 +1133,23 @@ struct PointVisibility::Impl {
     }
   }
 
-  // The cone from x around corners c[0, n), its half-angle widened by `margin` radians.
-  Cone cone_of(const Vec3* c, int n, double margin) {
+  // The cone from x around corners c[0, n), its half-angle widened by margin_times_distance / (the
+  // distance from x to the nearest corner) radians: what moving the corners by that much can turn.
+  Cone cone_of(const Vec3* c, int n, double margin_times_distance) {
     Cone k;
     directions.resize(size_t(n));
     Vec3 sum = Vec3::Zero();
+    double nearest = std::numeric_limits<double>::infinity();
     for (int i = 0; i < n; ++i) {
       const Vec3 d = c[i] - x.point;
       const double len = d.norm();
       if (!(len > 0.0)) return k;  // x on a corner
+      nearest = std::min(nearest, len);
       sum += directions[size_t(i)] = d / len;
     }
+    // An offset of the corners by up to margin_times_distance turns directions by at most that
+    // over the distance to the nearest corner.
+    const double margin = margin_times_distance / nearest;
     const double len = sum.norm();
     if (!(len > 1e-6)) return k;
     k.axis = sum / len;
@@ -1176,22 +1188,17 @@ struct PointVisibility::Impl {
       return grouped.tile_occluders(t);
     }
     TileClip& c = tiles[size_t(t)];
-    if (c.listed == generation) return c.occluders;
-    c.listed = generation;
+    if (listed[size_t(t)] == generation) return c.occluders;
+    listed[size_t(t)] = generation;
     if (candidates_for != generation) find_candidates();
     // The tile's patches lie within the culler's tolerance of its rectangle: widen cones by
-    // what that offset can turn a direction.
-    auto margin = [&](const Vec3* corners, size_t n) {
-      double nearest = std::numeric_limits<double>::infinity();
-      for (size_t k = 0; k < n; ++k) nearest = std::min(nearest, (corners[k] - x.point).norm());
-      return 8.0 * vis->culler().tolerance() / std::max(nearest, 1e-300);  // x on a corner: the cone is wide anyway
-    };
+    // what that offset can turn a direction (cone_of divides by the nearest corner's distance).
+    const double offset = 8.0 * vis->culler().tolerance();
     // The block's candidates first, then the tile's among them.
     Block& block = blocks[size_t(block_of[size_t(t)])];
     if (block.stamp != generation) {
       block.stamp = generation;
-      const Cone cb = cone_of(block.corners.data(), static_cast<int>(block.corners.size()),
-                              margin(block.corners.data(), block.corners.size()));
+      const Cone cb = cone_of(block.corners.data(), static_cast<int>(block.corners.size()), offset);
       block.near.resize(candidates.size());
       size_t count = 0;
       for (size_t k = 0; k < candidates.size(); ++k) {
@@ -1201,7 +1208,7 @@ struct PointVisibility::Impl {
       block.near.resize(count);
     }
     const Vec3* corners = grouped.tile_corners(t);
-    const Cone ct = cone_of(corners, 4, margin(corners, 4));
+    const Cone ct = cone_of(corners, 4, offset);
     near.resize(block.near.size());
     size_t count = 0;
     for (int k : block.near) {
@@ -1211,7 +1218,14 @@ struct PointVisibility::Impl {
     near.resize(count);
     // In face order, as the candidates are: occluders_among keeps it, so the clipping's order is fixed.
     vis->culler().occluders_among(&x.point, 1, corners, 4, near, c.occluders);
+    no_occluders[size_t(t)] = c.occluders.empty();
     return c.occluders;
+  }
+
+  // tile_occluders(t).empty(), from the compact arrays once the list is known.
+  bool tile_unoccluded(int t) {
+    if (cones && listed[size_t(t)] == generation) return no_occluders[size_t(t)];
+    return tile_occluders(t).empty();
   }
 
   // Appends the boxes of `pieces` to c, grown by `margin`.
@@ -1288,7 +1302,7 @@ double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& no
   if (m.vis->method() == VisibilityMethod::Rays || t < 0 || m.grouped.tile_corner_count(t) != 4 || nb < 3 || nb > 4)
     return by_patch();
   // The fast exit first: a tile with no occluders in its shaft needs no clipping at all.
-  if (m.tile_occluders(t).empty()) return unoccluded;
+  if (m.tile_unoccluded(t)) return unoccluded;
   Impl::TileClip& c = m.clip(t);
   if (!c.cut) return unoccluded;
   // The patch relative to x and its box: most patches are settled by boxes alone.

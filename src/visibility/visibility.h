@@ -129,7 +129,7 @@ class GroupedShaftCuller {
   // rectangle in a flat face's plane, containing its patches; 8 for a box) and the occluders of
   // the receiver–tile shaft.
   int tile_of(int patch) const;
-  int tile_corner_count(int tile) const { return tiles_[size_t(tile)].corner_count; }
+  int tile_corner_count(int tile) const { return tile_corner_counts_[size_t(tile)]; }
   int tile_face(int tile) const { return tiles_[size_t(tile)].face; }
   const Vec3* tile_corners(int tile) const { return tiles_[size_t(tile)].corners; }
   const std::vector<int>& tile_occluders(int tile) { return group(culler_->face_count() + tile); }
@@ -145,6 +145,9 @@ class GroupedShaftCuller {
   const std::vector<int>& group(int g);
   const ShaftCuller* culler_;
   std::vector<Tile> tiles_;
+  // Each tile's corner_count again, compact: read for every (point, patch) pair, where a Tile
+  // (200 bytes) would be a cache miss on large meshes.
+  std::vector<unsigned char> tile_corner_counts_;
   std::vector<int> tile_of_patch_;
   Vec3 receiver_[4];
   int receiver_count_ = 0;
