@@ -96,12 +96,11 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
     }
     // The facing classes of the row, on first need (closed-form pairs do not use them).
     std::vector<Facing> facing;
-    auto facing_of = [&](int j) {
+    auto classify_row = [&]() {
       if (facing.empty()) {
         facing.resize(static_cast<size_t>(n));
         facing_runs.classify(i, facing.data());
       }
-      return facing[size_t(j)];
     };
     // Lambert's kernel from each receiver point to every patch (nq × n), batched, on first need.
     std::vector<double> kernel;
@@ -110,7 +109,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
         kernel.resize(size_t(nq) * n);
         // Only for the sources that face the receiver: the others are never read, except that
         // closed-form pairs (which skip the facing test) may be read, so then for all.
-        if (!rects && facing.empty()) facing_of(0);
+        if (!rects) classify_row();
         for (int k = 0; k < nq; ++k) {
           const Receiver at{rule[k].point, pi.normal};
           double* out = kernel.data() + size_t(k) * n;
@@ -136,7 +135,8 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
           exact_rectangles += 2;
           continue;
         }
-      } else if (const Facing fj = facing_of(j); fj == Facing::Away || (fj == Facing::Test && facing_away(mesh, i, j, tol))) {
+      } else if (classify_row(); facing[size_t(j)] == Facing::Away ||
+                                 (facing[size_t(j)] == Facing::Test && facing_away(mesh, i, j, tol))) {
         ++backfacing;
         continue;
       }

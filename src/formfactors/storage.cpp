@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cstring>
 #include <stdexcept>
+#include <type_traits>
 
 #include "util/error.h"
 
@@ -80,22 +81,20 @@ FormFactors::DenseBlock<T> FormFactors::allocate_dense(int n) {
 FormFactors::FormFactors(const FormFactors& other)
     : n_(other.n_), layout_(other.layout_), precision_(other.precision_), columns_(other.columns_),
       values_double_(other.values_double_), values_float_(other.values_float_) {
-  const size_t count = size_t(n_) * size_t(n_);
-  if (other.dense_double_) {
-    dense_double_ = allocate_dense<double>(n_);
-    std::memcpy(dense_double_.get(), other.dense_double_.get(), count * sizeof(double));
-  }
-  if (other.dense_float_) {
-    dense_float_ = allocate_dense<float>(n_);
-    std::memcpy(dense_float_.get(), other.dense_float_.get(), count * sizeof(float));
-  }
+  auto copy = [n = n_](const auto& from, auto& to) {
+    using T = std::remove_reference_t<decltype(*from.get())>;
+    if (!from) return;
+    to = allocate_dense<T>(n);
+    std::memcpy(to.get(), from.get(), size_t(n) * size_t(n) * sizeof(T));
+  };
+  copy(other.dense_double_, dense_double_);
+  copy(other.dense_float_, dense_float_);
 }
 
 FormFactors& FormFactors::operator=(const FormFactors& other) {
   if (this != &other) *this = FormFactors(other);
   return *this;
 }
-
 
 FormFactors::FormFactors(int n, MatrixLayout layout, MatrixPrecision precision)
     : n_(n), layout_(layout), precision_(precision) {
