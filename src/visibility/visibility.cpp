@@ -697,6 +697,7 @@ class PiecePool {
     if (size_ == store_.size()) store_.emplace_back();
     return store_[size_++];
   }
+  void truncate(size_t n) { size_ = std::min(size_, n); }  // forgets the polygons from n on
   friend void swap(PiecePool& a, PiecePool& b) noexcept {
     a.store_.swap(b.store_);
     std::swap(a.size_, b.size_);
@@ -895,8 +896,20 @@ bool subtract_shadows(double scale, const std::vector<Polygon>& faces, const std
     for (size_t pi = 0; pi < pieces.size(); ++pi) {
       // The piece itself until a plane cuts it, then what is left inside (in `cur`). Pieces are
       // moved, not copied, into `next`: `pieces` is replaced by it.
+      // Outside one plane of the volume: not in the shadow; kept whole, with no split.
+      bool outside_one = false;
+      for (size_t p = 0; p < volume.size() && !outside_one; ++p) {
+        bool all_out = true;
+        for (const Vec3& y : pieces[pi]) all_out = all_out && volume[p].m.dot(y) - volume[p].d <= eps;
+        outside_one = all_out;
+      }
+      if (outside_one) {
+        next.push().swap(pieces[pi]);
+        continue;
+      }
       Polygon* rest = &pieces[pi];
-      bool shadowed = true;
+      bool shadowed = true, split = false;
+      const size_t first_part = next.size();
       for (const Plane& p : volume) {
         s.resize(rest->size());
         bool all_out = true, all_in = true;
@@ -911,7 +924,7 @@ bool subtract_shadows(double scale, const std::vector<Polygon>& faces, const std
           break;
         }
         if (all_in) continue;
-        cut = true;
+        split = true;
         split_keep(*rest, s, inside, outside);
         if (!outside.empty()) next.push().swap(outside);
         cur.swap(inside);
@@ -921,6 +934,11 @@ bool subtract_shadows(double scale, const std::vector<Polygon>& faces, const std
       if (shadowed) {
         cut = true;
         if (shadows) shadows->push().swap(*rest);
+      } else if (split) {
+        // Nothing of it was in the shadow after all (a later plane had all of the part inside the
+        // earlier ones outside it): keep the piece whole rather than the parts the splits made.
+        next.truncate(first_part);
+        next.push().swap(pieces[pi]);
       }
     }
     swap(pieces, next);
