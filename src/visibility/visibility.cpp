@@ -1104,7 +1104,7 @@ struct PointVisibility::Impl {
   // neighbours), culled first, so a tile tests only its block's candidates.
   static constexpr int kBlockTiles = 8;
   struct Block {
-    std::vector<Vec3> corners;  // its tiles' corners
+    std::vector<Vec3> corners;  // its tiles' corners, or the 4 of a rectangle in their plane that contains them
     long long stamp = -1;
     std::vector<int> near;      // the candidates (indices) whose cones may meet the block's
   };
@@ -1148,6 +1148,24 @@ struct PointVisibility::Impl {
       block_face = face;
       block_of[size_t(t)] = static_cast<int>(blocks.size()) - 1;
       for (int k = 0; k < 4; ++k) blocks.back().corners.push_back(grouped.tile_corners(t)[k]);
+    }
+    // A block's cone from the rectangle around its tiles (the same plane, up to the tiles' own
+    // flatness tolerance) rather than from their 32 corners: a cone around a convex polygon's
+    // corners bounds all of it, and 4 corners are an eighth of the work per point.
+    for (Block& b : blocks) {
+      if (b.corners.size() <= 4) continue;
+      Vec3 w = newell_vector(b.corners.data(), 4);
+      if (!(w.norm() > 0.0)) continue;
+      w.normalize();
+      const Vec3 u = w.unitOrthogonal(), v = w.cross(u);
+      Eigen::AlignedBox3d box;
+      for (const Vec3& y : b.corners) box.extend(Vec3(u.dot(y), v.dot(y), w.dot(y)));
+      if (box.sizes().z() > 4.0 * culler.tolerance()) continue;  // not one plane: keep every corner
+      const double wc = 0.5 * (box.min().z() + box.max().z());
+      const double cu[4] = {box.min().x(), box.max().x(), box.max().x(), box.min().x()};
+      const double cv[4] = {box.min().y(), box.min().y(), box.max().y(), box.max().y()};
+      b.corners.resize(4);
+      for (int k = 0; k < 4; ++k) b.corners[size_t(k)] = cu[k] * u + cv[k] * v + wc * w;
     }
   }
 
@@ -1216,7 +1234,8 @@ struct PointVisibility::Impl {
     Block& block = blocks[size_t(block_of[size_t(t)])];
     if (block.stamp != generation) {
       block.stamp = generation;
-      const Cone cb = cone_of(block.corners.data(), static_cast<int>(block.corners.size()), offset);
+      // Widened further for the rectangle's offset from the tiles' planes (at most 2 tolerances).
+      const Cone cb = cone_of(block.corners.data(), static_cast<int>(block.corners.size()), 2.0 * offset);
       block.near.resize(candidates.size());
       size_t count = 0;
       for (size_t k = 0; k < candidates.size(); ++k) {
@@ -1224,6 +1243,11 @@ struct PointVisibility::Impl {
         count += cb.wide || candidates.may_meet(k, cb);  // no branch
       }
       block.near.resize(count);
+    }
+    if (block.near.empty()) {  // no face's cone meets the block's: nothing shadows its tiles
+      c.occluders.clear();
+      no_occluders[size_t(t)] = 1;
+      return c.occluders;
     }
     const Vec3* corners = grouped.tile_corners(t);
     const Cone ct = cone_of(corners, 4, offset);
