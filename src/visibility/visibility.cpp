@@ -879,13 +879,18 @@ bool subtract_shadows(double scale, const std::vector<Polygon>& faces, const std
     // Classification tolerance: 1e-12 × the configuration's size.
     const double eps = 1e-12 * std::max(scale, v->reach);
     const std::vector<Plane>& volume = v->planes;
+    // Whether polygon q lies on or outside plane p of the volume (then the volume hides none of it).
+    auto outside_of = [&](const Polygon& q, const Plane& p) {
+      bool all_out = true;
+      for (const Vec3& y : q) all_out = all_out && p.m.dot(y) - p.d <= eps;
+      return all_out;
+    };
     // Every piece outside one plane of the volume (the usual case for the back faces of a box
     // and for occluders behind the source): it hides none of them.
     bool separated = false;
     for (size_t p = 0; p < volume.size() && !separated; ++p) {
       bool all_out = true;
-      for (size_t pi = 0; pi < pieces.size() && all_out; ++pi)
-        for (const Vec3& y : pieces[pi]) all_out = all_out && volume[p].m.dot(y) - volume[p].d <= eps;
+      for (size_t pi = 0; pi < pieces.size() && all_out; ++pi) all_out = outside_of(pieces[pi], volume[p]);
       separated = all_out;
     }
     if (separated) continue;
@@ -893,19 +898,13 @@ bool subtract_shadows(double scale, const std::vector<Polygon>& faces, const std
     // but outside 2, ... are visible; what lies inside every plane is in the shadow.
     next.clear();
     for (size_t pi = 0; pi < pieces.size(); ++pi) {
-      // The piece itself until a plane cuts it, then what is left inside (in `cur`). Pieces are
-      // moved, not copied, into `next`: `pieces` is replaced by it.
       // Outside one plane of the volume: not in the shadow; kept whole, with no split.
-      bool outside_one = false;
-      for (size_t p = 0; p < volume.size() && !outside_one; ++p) {
-        bool all_out = true;
-        for (const Vec3& y : pieces[pi]) all_out = all_out && volume[p].m.dot(y) - volume[p].d <= eps;
-        outside_one = all_out;
-      }
-      if (outside_one) {
+      if (std::any_of(volume.begin(), volume.end(), [&](const Plane& p) { return outside_of(pieces[pi], p); })) {
         next.push().swap(pieces[pi]);
         continue;
       }
+      // The piece itself until a plane cuts it, then what is left inside (in `cur`). Pieces are
+      // moved, not copied, into `next`: `pieces` is replaced by it.
       Polygon* rest = &pieces[pi];
       bool shadowed = true, split = false;
       const size_t first_part = next.size();
