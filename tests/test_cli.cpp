@@ -224,6 +224,27 @@ TEST(Cli, SceneFileLightsGiveDirectIrradiance) {
   for (double b : array(g.point_arrays, "radiosity").values) EXPECT_NEAR(b, 500.0, 1e-9);
 }
 
+// Grey materials under a coloured light: each channel is solved (one grey channel copied to
+// the others would give every channel the red one's 500).
+TEST(Cli, ColouredLightOnGreyMaterialsSolvesEveryChannel) {
+  const fs::path dir = scratch();
+  std::ofstream(dir / "floor.off") << "OFF\n4 1 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n";
+  std::ofstream(dir / "red_sun.json") << R"({"meshes": [{"file": "floor.off", "reflectance": [0.5, 0.5, 0.5]}],
+    "lights": [{"type": "distant", "direction": [0, 0, 1], "angle": 0.53, "intensity": [1000, 400, 0], "normalize": true}]})";
+  const std::string out = (dir / "red_sun.vtu").string();
+  const CliRun r = run("solve " + (dir / "red_sun.json").string() + " -o " + out + " --max-edge 0.5 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto s = nlohmann::json::parse(r.out);
+  EXPECT_EQ(s["solver"]["channels"], 3);
+  const VtuGrid g = photometria::read_vtu(out);
+  const double want[3] = {500.0, 200.0, 0.0};
+  for (const char* where : {"cells", "points"}) {
+    const auto& b = array(std::string(where) == "cells" ? g.cell_arrays : g.point_arrays, "radiosity").values;
+    ASSERT_EQ(b.size() % 3, 0u);
+    for (size_t k = 0; k < b.size(); ++k) EXPECT_NEAR(b[k], want[k % 3], 1e-9) << where << " value " << k;
+  }
+}
+
 // `validate --quick --report DIR`: the table as CSV and, through gnuplot, the error-against-time
 // plot (docs/validation.md). Without gnuplot the plot cannot be made: exit 2 naming gnuplot, the
 // CSV still written.

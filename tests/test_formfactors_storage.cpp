@@ -55,6 +55,13 @@ TEST(FormFactorStorage, EveryLayoutAnswersLikeTheDenseMatrix) {
       for (int i = 0; i < n; ++i) {
         EXPECT_NEAR(f.row_dot(i, x), m.row(i).dot(x), tol * m.row(i).cwiseAbs().sum() * 2.0);
         EXPECT_NEAR(f.row_sum(i), m.row(i).sum(), tol * m.row(i).sum() + 1e-300);
+        // Column ranges: empty, one column, the ends, and ranges longer than a vector of 8.
+        for (auto [begin, end] : {std::pair{0, 0}, {5, 5}, {3, 4}, {0, 9}, {4, 29}, {11, n}, {0, n}, {n, n}}) {
+          const Eigen::Index count = end - begin;
+          EXPECT_NEAR(f.row_dot(i, x, begin, end), m.row(i).segment(begin, count).dot(x.segment(begin, count)),
+                      tol * m.row(i).cwiseAbs().sum() * 2.0 + 1e-300)
+              << "columns " << begin << " .. " << end;
+        }
         for (int j = 0; j < n; ++j) EXPECT_NEAR(f(i, j), m(i, j), tol * m(i, j));
         Eigen::VectorXd y = Eigen::VectorXd::Ones(n), expected = y + 0.5 * m.row(i).transpose();
         f.add_row_to(i, 0.5, y);

@@ -1,7 +1,11 @@
 #include <gtest/gtest.h>
+#include <omp.h>
+
+#include <random>
 
 #include "formfactors/formfactors.h"
 #include "scene_builders.h"
+#include "formfactors/storage.h"
 #include "solver/gauss_seidel.h"
 #include "util/error.h"
 
@@ -42,6 +46,53 @@ TEST(GaussSeidel, ColouredChannelsAreSolvedSeparately) {
   EXPECT_NEAR(B(0, 0), 1.25, 1e-9);
   EXPECT_NEAR(B(0, 1), 2.0, 1e-9);
   EXPECT_NEAR(B(0, 2), 5.0, 1e-9);
+}
+
+// The blocked sweep (channel.h gauss_seidel_sweep) is the row-by-row Gauss–Seidel sweep: rows
+// updated once each, in order, each from the values of the rows before it in this sweep and of
+// those after it in the last; the same to rounding in every storage, bit for bit on 1 or 2 threads.
+TEST(GaussSeidel, BlockedSweepIsTheRowByRowSweep) {
+  const int n = 3 * kSweepBlock + 37;  // blocks of the full size and a partial one
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  FormFactorMatrix m = FormFactorMatrix::Zero(n, n);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      if (u(rng) < 0.4) m(i, j) = 0.002 * u(rng);
+  Eigen::VectorXd start(n), rho(n);
+  for (int i = 0; i < n; ++i) start[i] = u(rng), rho[i] = 0.9 * u(rng);
+  const Eigen::VectorXd E = Eigen::VectorXd::LinSpaced(n, 0.0, 1.0);
+  // Two sweeps row by row on the dense double matrix.
+  Eigen::VectorXd want = start;
+  for (int sweep = 0; sweep < 2; ++sweep)
+    for (int i = 0; i < n; ++i) want[i] = E[i] + rho[i] * m.row(i).dot(want);
+  const int threads = omp_get_max_threads();
+  for (MatrixLayout layout : {MatrixLayout::Dense, MatrixLayout::Sparse})
+    for (MatrixPrecision precision : {MatrixPrecision::Double, MatrixPrecision::Float}) {
+      FormFactors f(n, layout, precision);
+      for (int i = 0; i < n; ++i) f.set_row(i, m.row(i).data());
+      SCOPED_TRACE(f.description());
+      Eigen::VectorXd per_thread_count[2];
+      for (int t : {1, 2}) {
+        omp_set_num_threads(t);
+        Eigen::VectorXd B = start;
+        for (int sweep = 0; sweep < 2; ++sweep) {
+          int next = 0;  // the row the sweep must update next
+          gauss_seidel_sweep(f, B, [&](int i, double fb) {
+            EXPECT_EQ(i, next);
+            next = i + 1;
+            return E[i] + rho[i] * fb;
+          });
+          EXPECT_EQ(next, n);
+        }
+        // float entries are rounded to nearest (2^-24 relative); B ~ 1 and Σ_j F_ij < 1.
+        const double tol = precision == MatrixPrecision::Float ? 1e-7 : 1e-14;
+        EXPECT_LE((B - want).cwiseAbs().maxCoeff(), tol);
+        per_thread_count[t - 1] = B;
+      }
+      EXPECT_TRUE(per_thread_count[0] == per_thread_count[1]) << "the result depends on the thread count";
+    }
+  omp_set_num_threads(threads);
 }
 
 TEST(GaussSeidel, RefusesReflectanceOfOneAndNegativeEmission) {

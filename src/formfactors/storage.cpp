@@ -175,34 +175,53 @@ double FormFactors::operator()(int i, int j) const {
   return precision_ == MatrixPrecision::Double ? values_double_[i][k] : double(values_float_[i][k]);
 }
 
-double FormFactors::row_dot(int i, const Eigen::VectorXd& x) const {
+double FormFactors::row_dot(int i, const Eigen::VectorXd& x) const { return row_dot(i, x, 0, n_); }
+
+double FormFactors::row_dot(int i, const Eigen::VectorXd& x, int begin, int end) const {
   if (layout_ == MatrixLayout::Dense) {
-    if (precision_ == MatrixPrecision::Double) return Eigen::Map<const Eigen::RowVectorXd>(ddata(i), n_).dot(x.transpose());
+    const int count = end - begin;
+    if (precision_ == MatrixPrecision::Double)
+      return Eigen::Map<const Eigen::RowVectorXd>(ddata(i) + begin, count).dot(x.segment(begin, count).transpose());
     // Eight partial sums: one running sum would wait on each addition's latency (the compiler
     // may not reorder a floating-point sum), eight independent ones vectorize.
-    const float* row = fdata(i);
-    const double* xs = x.data();
+    const float* row = fdata(i) + begin;
+    const double* xs = x.data() + begin;
     double acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};
     int j = 0;
-    for (; j + 8 <= n_; j += 8)
+    for (; j + 8 <= count; j += 8)
       for (int k = 0; k < 8; ++k) acc[k] += double(row[j + k]) * xs[j + k];
     double sum = ((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7]));
-    for (; j < n_; ++j) sum += double(row[j]) * xs[j];
+    for (; j < count; ++j) sum += double(row[j]) * xs[j];
     return sum;
   }
   const std::vector<int32_t>& c = columns_[i];
+  // Columns are ascending: the range is one run of them.
+  const size_t k0 = begin <= 0 ? 0 : size_t(std::lower_bound(c.begin(), c.end(), begin) - c.begin());
+  const size_t k1 = end >= n_ ? c.size() : size_t(std::lower_bound(c.begin() + long(k0), c.end(), end) - c.begin());
   double sum = 0.0;
   if (precision_ == MatrixPrecision::Double) {
     const std::vector<double>& v = values_double_[i];
-    for (size_t k = 0; k < c.size(); ++k) sum += v[k] * x[c[k]];
+    for (size_t k = k0; k < k1; ++k) sum += v[k] * x[c[k]];
   } else {
     const std::vector<float>& v = values_float_[i];
-    for (size_t k = 0; k < c.size(); ++k) sum += double(v[k]) * x[c[k]];
+    for (size_t k = k0; k < k1; ++k) sum += double(v[k]) * x[c[k]];
   }
   return sum;
 }
 
 double FormFactors::row_sum(int i) const {
+  if (layout_ == MatrixLayout::Dense) {
+    if (precision_ == MatrixPrecision::Double) return Eigen::Map<const Eigen::RowVectorXd>(ddata(i), n_).sum();
+    // Eight partial sums, as in row_dot.
+    const float* row = fdata(i);
+    double acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    int j = 0;
+    for (; j + 8 <= n_; j += 8)
+      for (int k = 0; k < 8; ++k) acc[k] += double(row[j + k]);
+    double sum = ((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7]));
+    for (; j < n_; ++j) sum += double(row[j]);
+    return sum;
+  }
   double sum = 0.0;
   for_each_in_row(i, [&](int, double f) { sum += f; });
   return sum;

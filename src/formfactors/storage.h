@@ -74,6 +74,8 @@ class FormFactors {
 
   double operator()(int i, int j) const;         // F_ij (sparse: binary search in row i)
   double row_dot(int i, const Eigen::VectorXd& x) const;  // Σ_j F_ij x_j
+  // Σ_j F_ij x_j over the columns begin <= j < end only (0 <= begin <= end <= N).
+  double row_dot(int i, const Eigen::VectorXd& x, int begin, int end) const;
   double row_sum(int i) const;                   // Σ_j F_ij
   void add_row_to(int i, double alpha, Eigen::VectorXd& y) const;  // y += alpha · F_i,·
   // Calls fn(j, F_ij) for the stored entries of row i (dense: every entry, zeros included).

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <functional>
 #include <string>
 
 #include "formfactors/formfactors.h"
@@ -29,6 +30,18 @@ struct ChannelResult {
 
 // y = F x, rows split over the OpenMP threads (a dense product is memory bound; one pass over F).
 void multiply(const FormFactors& F, const Eigen::VectorXd& x, Eigen::VectorXd& y);
+
+// One sweep in Gauss–Seidel order: for i = 0 .. N−1 in turn, B_i = new_value(i, s_i) with
+// s_i = Σ_j F_ij B_j, where B_j (j < i) is already this sweep's value and B_j (j >= i) the last
+// one's. new_value is called in that order on one thread at a time.
+// The same iteration as updating row after row, at both cores' memory bandwidth (a dense sweep is
+// a pass over F, memory bound): rows go in blocks of kSweepBlock; the part of a block's rows
+// outside the block's own columns depends only on B values that are final for this block, so it
+// is summed first with the rows split over the OpenMP threads, then the block's rows are updated
+// in order, adding their in-block part. Each row is summed by one thread in a fixed order, so the
+// result does not depend on the thread count.
+constexpr int kSweepBlock = 256;
+void gauss_seidel_sweep(const FormFactors& F, Eigen::VectorXd& B, const std::function<double(int, double)>& new_value);
 
 // r = E + ρ∘(F B + H) − B (one pass over F).
 Eigen::VectorXd residual_vector(const ChannelProblem& p, const Eigen::VectorXd& B);

@@ -20,21 +20,20 @@ double young_omega(const FormFactors& F, const Eigen::VectorXd& rho) {
 
 ChannelResult sor_channel(const ChannelProblem& p, double omega, const SolverOptions& opt, Eigen::VectorXd& B) {
   const FormFactors& F = p.F;
-  const int n = static_cast<int>(p.E.size());
   B = p.E;
   double residual = relative_norm(residual_vector(p, B), B);
   if (residual <= opt.tolerance) return {0, residual, true, false, ""};
   for (int sweep = 1; sweep <= opt.max_iterations; ++sweep) {
     double update2 = 0.0, norm2 = 0.0;
-    for (int i = 0; i < n; ++i) {
+    gauss_seidel_sweep(F, B, [&](int i, double fb) {
       const double fii = F(i, i);
       // Gauss–Seidel value, then over-relaxed (sor.h; Young 1954, SOR)
-      const double g = (p.E[i] + p.rho[i] * (F.row_dot(i, B) - fii * B[i] + p.H[i])) / (1.0 - p.rho[i] * fii);
+      const double g = (p.E[i] + p.rho[i] * (fb - fii * B[i] + p.H[i])) / (1.0 - p.rho[i] * fii);
       const double b = B[i] + omega * (g - B[i]);
       update2 += (b - B[i]) * (b - B[i]);
       norm2 += b * b;
-      B[i] = b;
-    }
+      return b;
+    });
     if (update2 <= opt.tolerance * opt.tolerance * norm2 || sweep == opt.max_iterations) {
       residual = relative_norm(residual_vector(p, B), B);
       if (residual <= opt.tolerance) return {sweep, residual, true, false, ""};
