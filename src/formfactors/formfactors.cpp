@@ -175,7 +175,6 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
           continue;
         }
       }
-      source();
       ++fixed_rule;
       kernels += nq;
       double f0 = 0.0;
@@ -192,12 +191,14 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
       }
       ++evaluated;
       double f = f0;
-      if (from_point && f0 > 0.0) {
+      if (from_point && f0 > 0.0 && from_point->tile_unshadowed(j)) {
+        ++tested, ++culled;  // the patch's tile is unshadowed: f stands, without the patch's corners
+      } else if (from_point && f0 > 0.0) {
         ++tested;
         bool unshadowed = true;
         // Only rays use the pair's stream.
         const uint64_t stream = rays_mode ? pair_stream(pair_stream(options.seed, uint64_t(i), uint64_t(j)), 0, 0) : 0;
-        const double v = from_point->visible(j, sj, pj.corner_count, pj.normal, unoccluded[0], options.rays,
+        const double v = from_point->visible(j, source(), pj.corner_count, pj.normal, unoccluded[0], options.rays,
                                              stream, rays, unshadowed);
         if (unshadowed) ++culled;
         if (rays_mode && !unshadowed) ray_part[size_t(j)] = v;
@@ -208,7 +209,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
       } else if (vis && f0 > 0.0) {
         if (!shaft_known) {
           ++tested;
-          grouped->occluders(j, sj, pj.corner_count, occluders);
+          grouped->occluders(j, source(), pj.corner_count, occluders);
         }
         if (occluders.empty()) {
           ++culled;
@@ -216,7 +217,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
           f = 0.0;
           const uint64_t stream = pair_stream(options.seed, uint64_t(i), uint64_t(j));
           for (int q = 0; q < nq; ++q) {
-            const double v = vis->point_to_patch(Receiver{rule[q].point, pi.normal}, sj, pj.corner_count, pj.normal,
+            const double v = vis->point_to_patch(Receiver{rule[q].point, pi.normal}, source(), pj.corner_count, pj.normal,
                                                  unoccluded[q], occluders, options.rays,
                                                  pair_stream(stream, uint64_t(q), 0), rays);
             if (rays_mode) ray_part[size_t(q) * n + j] = v;

@@ -126,7 +126,9 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
           (facing[size_t(j)] == Facing::Test && point_facing_away(mesh, x.position, x.normal, j, tol)))
         continue;
       ++evaluated;
-      if (f > 0.0 && from_point) {
+      if (f > 0.0 && from_point && from_point->tile_unshadowed(j)) {
+        ++tested, ++culled;  // the patch's tile is unshadowed: f stands, without the patch's corners
+      } else if (f > 0.0 && from_point) {
         mesh.polygon(j, src);
         ++tested;
         bool unshadowed = true;

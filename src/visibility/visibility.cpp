@@ -1352,6 +1352,14 @@ void PointVisibility::set_receiver(const Receiver& x) {
   ++impl_->generation;
 }
 
+bool PointVisibility::tile_unshadowed(int patch) {
+  Impl& m = *impl_;
+  const int t = m.grouped.tile_of(patch);
+  if (m.vis->method() == VisibilityMethod::Rays || t < 0 || m.grouped.tile_corner_count(t) != 4) return false;
+  if (!m.receiver_set) m.grouped.set_receiver(&m.x.point, 1), m.receiver_set = true;
+  return m.tile_unoccluded(t);
+}
+
 double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& normal, double unoccluded, int rays,
                                 uint64_t stream, long long& rays_cast, bool& unshadowed) {
   Impl& m = *impl_;

@@ -251,6 +251,11 @@ class PointVisibility {
   // (added to rays_cast); exact mode ignores both.
   double visible(int patch, const Vec3* b, int nb, const Vec3& normal, double unoccluded, int rays, uint64_t stream,
                  long long& rays_cast, bool& unshadowed);
+  // True when patch `patch` (of 3 or 4 corners) is unshadowed from the point by what its tile
+  // alone tells: exact mode, a flat tile whose shaft from the point holds no occluder. Then
+  // visible() returns `unoccluded` with `unshadowed` set, so a caller may skip it and the
+  // patch's corners. False says nothing (visible() decides).
+  bool tile_unshadowed(int patch);
 
  private:
   struct Impl;
