@@ -165,9 +165,7 @@ void FormFactors::set_row(int i, const double* values) {
   }
 }
 
-double FormFactors::operator()(int i, int j) const {
-  if (layout_ == MatrixLayout::Dense)
-    return precision_ == MatrixPrecision::Double ? ddata(i)[j] : double(fdata(i)[j]);
+double FormFactors::sparse_entry(int i, int j) const {
   const std::vector<int32_t>& c = columns_[i];
   const auto it = std::lower_bound(c.begin(), c.end(), j);
   if (it == c.end() || *it != j) return 0.0;

@@ -72,7 +72,11 @@ class FormFactors {
   // its copy); nullptr for the other layouts. set_row(i, dense_double_row(i)) is a no-op.
   double* dense_double_row(int i) { return dense_double_ && layout_ == MatrixLayout::Dense ? ddata(i) : nullptr; }
 
-  double operator()(int i, int j) const;         // F_ij (sparse: binary search in row i)
+  // F_ij (sparse: binary search in row i). Inline: the checks read every entry of a dense F.
+  double operator()(int i, int j) const {
+    if (layout_ == MatrixLayout::Dense) return precision_ == MatrixPrecision::Double ? ddata(i)[j] : double(fdata(i)[j]);
+    return sparse_entry(i, j);
+  }
   double row_dot(int i, const Eigen::VectorXd& x) const;  // Σ_j F_ij x_j
   // Σ_j F_ij x_j over the columns begin <= j < end only (0 <= begin <= end <= N).
   double row_dot(int i, const Eigen::VectorXd& x, int begin, int end) const;
@@ -105,6 +109,7 @@ class FormFactors {
   static DenseBlock<T> allocate_dense(int n);
   DenseBlock<double> dense_double_;
   DenseBlock<float> dense_float_;
+  double sparse_entry(int i, int j) const;
   double* ddata(int i) const { return dense_double_.get() + size_t(i) * size_t(n_); }
   float* fdata(int i) const { return dense_float_.get() + size_t(i) * size_t(n_); }
   std::vector<std::vector<int32_t>> columns_;   // sparse: per row, ascending columns
