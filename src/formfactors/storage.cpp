@@ -12,6 +12,23 @@
 
 namespace photometria {
 
+namespace {
+
+// Σ_{j < count} term(j) in eight partial sums: one running sum would wait on each addition's
+// latency (the compiler may not reorder a floating-point sum), eight independent ones vectorize.
+template <class Term>
+double sum_in_eight(int count, Term term) {
+  double acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  int j = 0;
+  for (; j + 8 <= count; j += 8)
+    for (int k = 0; k < 8; ++k) acc[k] += term(j + k);
+  double sum = ((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7]));
+  for (; j < count; ++j) sum += term(j);
+  return sum;
+}
+
+}  // namespace
+
 const char* layout_name(MatrixLayout layout) {
   switch (layout) {
     case MatrixLayout::Auto: return "auto";
@@ -180,17 +197,9 @@ double FormFactors::row_dot(int i, const Eigen::VectorXd& x, int begin, int end)
     const int count = end - begin;
     if (precision_ == MatrixPrecision::Double)
       return Eigen::Map<const Eigen::RowVectorXd>(ddata(i) + begin, count).dot(x.segment(begin, count).transpose());
-    // Eight partial sums: one running sum would wait on each addition's latency (the compiler
-    // may not reorder a floating-point sum), eight independent ones vectorize.
     const float* row = fdata(i) + begin;
     const double* xs = x.data() + begin;
-    double acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};
-    int j = 0;
-    for (; j + 8 <= count; j += 8)
-      for (int k = 0; k < 8; ++k) acc[k] += double(row[j + k]) * xs[j + k];
-    double sum = ((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7]));
-    for (; j < count; ++j) sum += double(row[j]) * xs[j];
-    return sum;
+    return sum_in_eight(count, [&](int j) { return double(row[j]) * xs[j]; });
   }
   const std::vector<int32_t>& c = columns_[i];
   // Columns are ascending: the range is one run of them.
@@ -210,15 +219,8 @@ double FormFactors::row_dot(int i, const Eigen::VectorXd& x, int begin, int end)
 double FormFactors::row_sum(int i) const {
   if (layout_ == MatrixLayout::Dense) {
     if (precision_ == MatrixPrecision::Double) return Eigen::Map<const Eigen::RowVectorXd>(ddata(i), n_).sum();
-    // Eight partial sums, as in row_dot.
     const float* row = fdata(i);
-    double acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};
-    int j = 0;
-    for (; j + 8 <= n_; j += 8)
-      for (int k = 0; k < 8; ++k) acc[k] += double(row[j + k]);
-    double sum = ((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7]));
-    for (; j < n_; ++j) sum += double(row[j]);
-    return sum;
+    return sum_in_eight(n_, [&](int j) { return double(row[j]); });
   }
   double sum = 0.0;
   for_each_in_row(i, [&](int, double f) { sum += f; });
