@@ -2,7 +2,8 @@
 //
 //   B_i = E_i + ρ_i (Σ_j F_ij B_j + H_direct,i)          (DESIGN.md "Physics conventions")
 //
-// Sweeps i = 0..N-1 updating B_i in place (Cohen & Greenberg 1985; Cohen & Wallace 1993, §5.3).
+// Sweeps i = 0..N-1 updating B_i in place (Cohen & Greenberg 1985; Cohen & Wallace 1993, §5.3),
+// on every thread (channel.h gauss_seidel_sweep: the same iteration, summed in blocks).
 // Converges for 0 <= ρ < 1 and row sums Σ_j F_ij <= 1 (the system matrix is strictly diagonally
 // dominant). Stops when the relative residual ‖E + ρ∘(F·B + H_direct) − B‖₂ / ‖B‖₂ <= tolerance;
 // the (cheap) sweep update norm decides when that residual is worth computing.
