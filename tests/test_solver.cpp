@@ -95,6 +95,26 @@ TEST(GaussSeidel, BlockedSweepIsTheRowByRowSweep) {
   omp_set_num_threads(threads);
 }
 
+// A grey claim with coloured direct light (grey materials under a red light): every channel is
+// solved, not the first one copied.
+TEST(GaussSeidel, GreyClaimWithColouredLightSolvesEveryChannel) {
+  const PatchMesh mesh = subdivide(builders::unit_cube(), {0.5, 0.0});
+  const FormFactorMatrix F = furnace_matrix(mesh);
+  const int n = mesh.size();
+  ChannelMatrix E = ChannelMatrix::Zero(n, 3), R = ChannelMatrix::Constant(n, 3, 0.5), H(n, 3), B;
+  H.col(0).setConstant(1.0);
+  H.col(1).setConstant(0.4);
+  H.col(2).setConstant(0.0);
+  const SolverReport rep = solve_radiosity(F, E, R, H, true, {1e-12, 10000}, B);
+  EXPECT_EQ(rep.channels_solved, 3);
+  // Closed room, uniform H and ρ: B = ρ H / (1 − ρ) everywhere.
+  for (int i = 0; i < n; ++i) {
+    EXPECT_NEAR(B(i, 0), 1.0, 1e-9);
+    EXPECT_NEAR(B(i, 1), 0.4, 1e-9);
+    EXPECT_NEAR(B(i, 2), 0.0, 1e-12);
+  }
+}
+
 TEST(GaussSeidel, RefusesReflectanceOfOneAndNegativeEmission) {
   const PatchMesh mesh = subdivide(builders::unit_cube(), {});
   const FormFactorMatrix F = furnace_matrix(mesh);

@@ -264,7 +264,7 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
   s.checks = check_form_factors(r.mesh, F);
   timer.lap("form_factors");
 
-  bool grey = true;  // every material grey (and, below, the direct light)
+  bool grey = true;  // every material grey (solve_radiosity also checks the direct light)
   for (const Material& m : scene.materials) grey = grey && m.is_grey();
   // H_direct per patch: the mean over the receiver rule's points. Skipped without lights.
   ChannelMatrix direct = ChannelMatrix::Zero(s.patches, 3);
@@ -279,8 +279,6 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
         direct.row(i) += q.weight * lights.at(q.point, p.normal).matrix().transpose();
     }
   }
-  // One channel is solved only when every input is grey: a coloured light makes H_direct, and so B, differ.
-  grey = grey && direct.col(1) == direct.col(0) && direct.col(2) == direct.col(0);
   s.tolerance = opt.solver.tolerance;
   SolverOptions solver = opt.solver;  // + the patch areas, for the symmetric (cg) formulation
   solver.areas.resize(s.patches);
@@ -292,15 +290,16 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
       << s.solver.residual << " > tolerance " << opt.solver.tolerance << "); raise --max-iterations";
     throw Error(ErrorKind::NotConverged, m.str());
   }
-  // H = H_direct + F B per channel (one when grey: the channels are equal) and F's row sums, in one
-  // pass over F: a row read for the first product is still in the cache for the others.
+  // H = H_direct + F B per channel (one when the solve was grey: the channels are equal) and F's
+  // row sums, in one pass over F: a row read for the first product is still in the cache for the others.
+  const bool grey_solve = s.solver.channels_solved == 1;
   r.irradiance = direct;
   const Eigen::VectorXd radiosity[3] = {r.radiosity.col(0), r.radiosity.col(1), r.radiosity.col(2)};
   Eigen::VectorXd row_sums(s.patches);
 #pragma omp parallel for schedule(static)
   for (int i = 0; i < s.patches; ++i) {
-    for (int c = 0; c < (grey ? 1 : 3); ++c) r.irradiance(i, c) += F.row_dot(i, radiosity[c]);
-    if (grey) r.irradiance(i, 1) = r.irradiance(i, 2) = r.irradiance(i, 0);
+    for (int c = 0; c < (grey_solve ? 1 : 3); ++c) r.irradiance(i, c) += F.row_dot(i, radiosity[c]);
+    if (grey_solve) r.irradiance(i, 1) = r.irradiance(i, 2) = r.irradiance(i, 0);
     row_sums[i] = F.row_sum(i);
   }
   s.energy = energy_balance(row_sums, direct, r);

@@ -80,7 +80,9 @@ SolverReport solve_radiosity(const FormFactors& F, const ChannelMatrix& E, const
       }
   }
   SolverReport report;
-  report.channels_solved = grey ? 1 : 3;
+  // One channel only when the inputs really are grey (a coloured light over grey materials is not).
+  const auto same_channels = [](const ChannelMatrix& m) { return m.col(1) == m.col(0) && m.col(2) == m.col(0); };
+  report.channels_solved = grey && same_channels(E) && same_channels(rho) && same_channels(H) ? 1 : 3;
   report.method = options.method == SolverMethod::Auto
                       ? choose_method(n > 0 ? rho.leftCols(report.channels_solved).maxCoeff() : 0.0, n, areas_known)
                       : options.method;

@@ -67,7 +67,9 @@ struct SolverReport {
 // kept so that a reciprocal fill can opt back in.
 SolverMethod choose_method(double max_reflectance, int patches, bool areas_known);
 
-// Solves for B (N × 3). `grey` = all of E, ρ, H_direct identical across channels: solve one.
+// Solves for B (N × 3). `grey`: the caller expects E, ρ and H_direct to be identical across the
+// channels; one channel is solved (and copied) only when they are, so a wrong claim costs time,
+// never a wrong channel (report.channels_solved says which was done).
 // Throws photometria::Error(BadInput) if some ρ is outside [0, 1), some E < 0, cg is asked for
 // without options.areas (or areas of the wrong size / not > 0), or direct for N > direct_max_patches.
 SolverReport solve_radiosity(const FormFactors& F, const ChannelMatrix& emission,
