@@ -410,3 +410,60 @@ TEST(VisibilityScenes, PointVisibilityPerTileEqualsClippingEachPatch) {
     }
   }
 }
+
+// A receiver at the same point as the previous one with another normal (a gather point split at
+// a crease) reuses the point's culling and clipping: its visible factors are those of a
+// PointVisibility that starts afresh at that receiver, bit for bit.
+TEST(VisibilityScenes, PointVisibilityAtTheSamePointWithAnotherNormal) {
+  const Scene scene = validation::bench_room_scene();
+  const PatchMesh mesh = subdivide(scene, {0.3, 0.0});
+  const Visibility vis(scene, VisibilityMethod::Exact);
+  // Corners shared by patches of different normals: the furniture's and the room's edges.
+  std::vector<std::pair<Receiver, Receiver>> creases;
+  for (int i = 0; i < mesh.size() && creases.size() < 40; ++i)
+    for (int k = 0; k < mesh.patches[i].corner_count; ++k)
+      for (int j = 0; j < i; ++j) {
+        const Patch &pi = mesh.patches[i], &pj = mesh.patches[j];
+        const int v = pi.corners[size_t(k)];
+        const bool shares = std::find(pj.corners.begin(), pj.corners.begin() + pj.corner_count, v) !=
+                            pj.corners.begin() + pj.corner_count;
+        if (!shares || pi.normal.dot(pj.normal) > 0.5) continue;
+        const Vec3 p = mesh.points[size_t(v)];
+        creases.push_back({Receiver{p, pj.normal, (pj.centroid - p).normalized()},
+                           Receiver{p, pi.normal, (pi.centroid - p).normalized()}});
+        break;
+      }
+  ASSERT_GE(creases.size(), 20u);
+  PointVisibility reused(vis, mesh);
+  long long rays = 0;
+  int compared = 0, shadowed = 0;
+  Vec3 b[4];
+  for (const auto& [first, second] : creases) {
+    PointVisibility fresh(vis, mesh);
+    fresh.set_receiver(second);
+    reused.set_receiver(first);
+    for (int j = 0; j < mesh.size(); j += 2) {  // the first receiver's queries fill the caches
+      mesh.polygon(j, b);
+      const double f0 = lambert_form_factor(first, b, mesh.patches[j].corner_count);
+      bool unshadowed = false;
+      if (f0 > 0.0) reused.visible(j, b, mesh.patches[j].corner_count, mesh.patches[j].normal, f0, 0, 0, rays, unshadowed);
+    }
+    reused.set_receiver(second);
+    for (int j = 0; j < mesh.size(); ++j) {
+      mesh.polygon(j, b);
+      const Patch& pj = mesh.patches[j];
+      const double f0 = lambert_form_factor(second, b, pj.corner_count);
+      if (!(f0 > 0.0)) continue;
+      bool u1 = false, u2 = false;
+      const double want = fresh.visible(j, b, pj.corner_count, pj.normal, f0, 0, 0, rays, u1);
+      const double got = reused.visible(j, b, pj.corner_count, pj.normal, f0, 0, 0, rays, u2);
+      ASSERT_EQ(got, want) << "patch " << j;
+      ASSERT_EQ(u1, u2) << "patch " << j;
+      EXPECT_EQ(reused.tile_unshadowed(j), fresh.tile_unshadowed(j)) << "patch " << j;
+      shadowed += !u1;
+      ++compared;
+    }
+  }
+  EXPECT_GT(compared, 5000);
+  EXPECT_GT(shadowed, 100);
+}

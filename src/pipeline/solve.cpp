@@ -3,12 +3,14 @@
 #include <omp.h>
 #include <sys/resource.h>
 
+#include <algorithm>
 #include <chrono>
 #include <iomanip>
 #include <cmath>
 #include <memory>
 #include <sstream>
 #include <stdexcept>
+#include <tuple>
 
 #include "formfactors/facing.h"
 #include "formfactors/quadrature.h"
@@ -102,47 +104,64 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
   // The facing test per group of coplanar sources (formfactors/facing.h).
   const FacingGroups facing_runs(mesh, tol);
   const bool prefetch = mesh.prefetch_pays();
+  // Points at one position (split at a crease or a material change) in a row, handled by one
+  // thread: the visibility from a position is computed once (PointVisibility::set_receiver).
+  std::vector<int> order(size_t(np), 0), group_start;
+  for (int o = 0; o < np; ++o) order[size_t(o)] = o;
+  auto position_less = [&](int a, int b) {
+    const Vec3 &pa = r.points[size_t(a)].position, &pb = r.points[size_t(b)].position;
+    return std::tie(pa.x(), pa.y(), pa.z(), a) < std::tie(pb.x(), pb.y(), pb.z(), b);
+  };
+  std::sort(order.begin(), order.end(), position_less);
+  for (int k = 0; k < np; ++k)
+    if (k == 0 || r.points[size_t(order[size_t(k)])].position != r.points[size_t(order[size_t(k - 1)])].position)
+      group_start.push_back(k);
+  group_start.push_back(np);
+  const int groups = static_cast<int>(group_start.size()) - 1;
 #pragma omp parallel for schedule(dynamic, 16) reduction(+ : evaluated, rays, tested, culled)
-  for (int o = 0; o < np; ++o) {
-    const OutputPoint& x = r.points[o];
-    Eigen::RowVector3d h = Eigen::RowVector3d::Zero();
-    Vec3 src[4];
-    const Receiver receiver{x.position, x.normal, x.approach};
-    PointVisibility* from_point = vis ? &point_visibility[size_t(omp_get_thread_num())] : nullptr;
-    if (from_point) from_point->set_receiver(receiver);
-    thread_local std::vector<Facing> facing;
-    facing.resize(size_t(mesh.size()));
-    facing_runs.classify_point(x.position, x.normal, facing.data());
-    // The kernel for the sources that face the point (0 for the others, which are skipped below).
-    thread_local std::vector<double> kernel;
-    kernel.resize(mesh.size());
-    lambert_form_factors_facing(receiver, sources, facing.data(), kernel.data());
-    for (int j = 0; j < mesh.size(); ++j) {
-      if (prefetch) mesh.prefetch(j + 16, j + 8);
-      double f = kernel[j];
-      if (f == 0.0) continue;  // behind the patch, below the horizon, or edge-on: nothing to add
-      const Patch& pj = mesh.patches[j];
-      if (facing[size_t(j)] == Facing::Away ||
-          (facing[size_t(j)] == Facing::Test && point_facing_away(mesh, x.position, x.normal, j, tol)))
-        continue;
-      ++evaluated;
-      if (f > 0.0 && from_point && from_point->tile_unshadowed(j)) {
-        ++tested, ++culled;  // the patch's tile is unshadowed: f stands, without the patch's corners
-      } else if (f > 0.0 && from_point) {
-        mesh.polygon(j, src);
-        ++tested;
-        bool unshadowed = true;
-        f = from_point->visible(j, src, pj.corner_count, pj.normal, f, opt.rays,
-                                rays_mode ? pair_stream(opt.seed ^ 0x5eedULL, uint64_t(o), uint64_t(j)) : 0, rays,
-                                unshadowed);  // only rays use the pair's stream
-        culled += unshadowed;
+  for (int g = 0; g < groups; ++g) {
+    for (int k = group_start[size_t(g)]; k < group_start[size_t(g) + 1]; ++k) {
+      const int o = order[size_t(k)];
+      const OutputPoint& x = r.points[o];
+      Eigen::RowVector3d h = Eigen::RowVector3d::Zero();
+      Vec3 src[4];
+      const Receiver receiver{x.position, x.normal, x.approach};
+      PointVisibility* from_point = vis ? &point_visibility[size_t(omp_get_thread_num())] : nullptr;
+      if (from_point) from_point->set_receiver(receiver);
+      thread_local std::vector<Facing> facing;
+      facing.resize(size_t(mesh.size()));
+      facing_runs.classify_point(x.position, x.normal, facing.data());
+      // The kernel for the sources that face the point (0 for the others, which are skipped below).
+      thread_local std::vector<double> kernel;
+      kernel.resize(mesh.size());
+      lambert_form_factors_facing(receiver, sources, facing.data(), kernel.data());
+      for (int j = 0; j < mesh.size(); ++j) {
+        if (prefetch) mesh.prefetch(j + 16, j + 8);
+        double f = kernel[j];
+        if (f == 0.0) continue;  // behind the patch, below the horizon, or edge-on: nothing to add
+        const Patch& pj = mesh.patches[j];
+        if (facing[size_t(j)] == Facing::Away ||
+            (facing[size_t(j)] == Facing::Test && point_facing_away(mesh, x.position, x.normal, j, tol)))
+          continue;
+        ++evaluated;
+        if (f > 0.0 && from_point && from_point->tile_unshadowed(j)) {
+          ++tested, ++culled;  // the patch's tile is unshadowed: f stands, without the patch's corners
+        } else if (f > 0.0 && from_point) {
+          mesh.polygon(j, src);
+          ++tested;
+          bool unshadowed = true;
+          f = from_point->visible(j, src, pj.corner_count, pj.normal, f, opt.rays,
+                                  rays_mode ? pair_stream(opt.seed ^ 0x5eedULL, uint64_t(o), uint64_t(j)) : 0, rays,
+                                  unshadowed);  // only rays use the pair's stream
+          culled += unshadowed;
+        }
+        h += f * r.radiosity.row(j);
       }
-      h += f * r.radiosity.row(j);
+      if (!direct.empty()) h += direct.at(x.position, x.normal).matrix().transpose();
+      const Material& m = scene.materials[x.material];
+      r.point_irradiance.row(o) = h;
+      r.point_radiosity.row(o) = m.emission.matrix().transpose() + m.reflectance.matrix().transpose().cwiseProduct(h);
     }
-    if (!direct.empty()) h += direct.at(x.position, x.normal).matrix().transpose();
-    const Material& m = scene.materials[x.material];
-    r.point_irradiance.row(o) = h;
-    r.point_radiosity.row(o) = m.emission.matrix().transpose() + m.reflectance.matrix().transpose().cwiseProduct(h);
   }
   r.summary.vertex_pairs_evaluated = evaluated;
   r.summary.vertex_rays_cast = rays;

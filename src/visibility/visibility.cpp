@@ -1343,6 +1343,12 @@ PointVisibility::PointVisibility(PointVisibility&&) noexcept = default;
 PointVisibility& PointVisibility::operator=(PointVisibility&&) noexcept = default;
 
 void PointVisibility::set_receiver(const Receiver& x) {
+  // Culling and clipping depend on the point alone: a receiver at the same point (another
+  // normal, as at a crease) keeps them.
+  if (impl_->generation > 0 && x.point == impl_->x.point) {
+    impl_->x = x;
+    return;
+  }
   impl_->x = x;
   impl_->receiver_set = false;  // the culler's receiver is set on first need
   impl_->volumes.start(x.point);

@@ -243,7 +243,9 @@ class PointVisibility {
   PointVisibility(PointVisibility&&) noexcept;
   PointVisibility& operator=(PointVisibility&&) noexcept;
 
-  // The point of the following queries (a surface point with its normal and approach).
+  // The point of the following queries (a surface point with its normal and approach). The
+  // culling and the tiles' clipping depend on the point only, so a receiver at the same point as
+  // the previous one (another normal, as at a crease) reuses them: give such receivers in a row.
   void set_receiver(const Receiver& x);
   // F_vis(dA_x -> P) for patch `patch` of the mesh (corners b, nb; unit normal), given
   // `unoccluded` = F(dA_x -> P). `unshadowed` is set when no face shadows any of it (the
