@@ -464,3 +464,59 @@ TEST(LambertBatch, PolygonsInTheReceiverPlaneGiveZeroWithoutTheScalarKernel) {
   EXPECT_EQ(f, lambert_form_factor(Receiver{Vec3(0.5, -0.5, 0), Vec3::UnitZ()},
                                    Polygon{Vec3(0, 0, 0), Vec3(1, 0, 1e-3), Vec3(1, 1, 1e-3), Vec3(0, 1, 0)}));
 }
+
+// Shared edges (PolygonBatch::share_edges): each polygon's value is its own edge sum's bit for
+// bit (also where the receiver is exactly as far from an edge's two ends, and the polygon that
+// runs it backwards builds its cross product on the other end) and so within the scalar
+// kernel's agreement. Meshed cube walls (quads and triangles) over several chunks, a degenerate
+// and a non-finite polygon among them, whole chunks and sub-ranges (which sum their own edges).
+TEST(LambertBatch, SharedEdgesGiveEachPolygonItsOwnSum) {
+  std::vector<Polygon> patches = cube_patches(20);  // 6 × 20 × 20 cells, half of them two triangles
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  patches.insert(patches.begin() + 300, Polygon{{0.1, 0.1, 0.0}, {0.2, 0.1, 0.0}, {0.3, 0.1, 0.0}});  // no area
+  patches.insert(patches.begin() + 700, Polygon{{0.1, 0.1, 0.0}, {nan, 0.1, 0.0}, {0.3, 0.2, 0.0}});
+  const PolygonBatch own(patches);
+  PolygonBatch shared(patches);
+  shared.share_edges();
+  ASSERT_TRUE(shared.edges_shared());
+  ASSERT_FALSE(own.edges_shared());
+  const int chunks = (shared.padded + PolygonBatch::kEdgeChunk - 1) / PolygonBatch::kEdgeChunk;
+  ASSERT_EQ(shared.chunk_edges.size(), size_t(chunks) + 1);
+  EXPECT_GT(chunks, 10);
+  // A grid of cells shares most edges: fewer than 3 per polygon rather than 4 (a triangle's
+  // repeated corner adds a zero-length edge).
+  EXPECT_LT(shared.chunk_edges.back(), 3 * shared.size);
+  std::vector<Receiver> recv;
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(0.05, 0.95);
+  for (int i = 0; i < 12; ++i) recv.push_back({Vec3(u(rng), u(rng), u(rng)), random_unit(rng)});
+  recv.push_back({{0.5, 0.5, 0.0}, Vec3::UnitZ()});    // on the floor, at corners of cells: ties
+  recv.push_back({{0.525, 0.5, 0.0}, Vec3::UnitZ()});  // on the floor, on an edge
+  recv.push_back({{0.0, 0.5, 0.5}, Vec3::UnitX(), Vec3(0, 0, 1)});
+  recv.push_back({{0.3, 0.3, 0.5}, Vec3::UnitX()});
+  long values = 0;
+  for (const Receiver& r : recv) {
+    std::vector<double> want(size_t(own.size)), got(size_t(shared.size), -1.0);
+    lambert_form_factors(r, own, want.data());
+    lambert_form_factors(r, shared, got.data());
+    Vec3 v[4];
+    for (int k = 0; k < own.size; ++k) {
+      const double s = lambert_form_factor(r, v, shared.vertices(k, v));
+      if (std::isnan(s)) {  // the non-finite polygon: the scalar kernel's NaN, as without shared edges
+        EXPECT_TRUE(std::isnan(got[size_t(k)]) && std::isnan(want[size_t(k)])) << k;
+        continue;
+      }
+      EXPECT_TRUE(agrees(got[size_t(k)], s)) << "polygon " << k << ": " << got[size_t(k)] << " vs " << s;
+      ASSERT_EQ(got[size_t(k)], want[size_t(k)]) << "polygon " << k << " from " << r.point.transpose();
+      ++values;
+    }
+    // A sub-range that is no whole chunk: its polygons sum their own edges.
+    std::vector<double> part(300);
+    lambert_form_factors(r, shared, 1000, 1300, part.data());
+    for (int k = 1000; k < 1300; ++k) EXPECT_EQ(part[size_t(k - 1000)], want[size_t(k)]) << k;
+  }
+  EXPECT_GT(values, 50000);
+  // A polygon pushed afterwards makes the tables stale: they are forgotten.
+  shared.push_back(patches.front());
+  EXPECT_FALSE(shared.edges_shared());
+}

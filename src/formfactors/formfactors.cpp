@@ -29,6 +29,7 @@ PolygonBatch patch_batch(const PatchMesh& mesh) {
     mesh.polygon(j, v);
     batch.push_back(v, mesh.patches[j].corner_count);
   }
+  batch.share_edges();  // neighbouring patches share corners: each edge's term once per point
   return batch;
 }
 

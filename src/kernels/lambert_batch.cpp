@@ -6,11 +6,16 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <map>
+#include <utility>
 #include <stdexcept>
 #include <string>
 
 namespace photometria {
 static_assert(PolygonBatch::kPadding == lambert_batch_detail::kPadding);
+static_assert(PolygonBatch::kEdgeChunk == lambert_batch_detail::kEdgeChunk);
+static_assert(PolygonBatch::kEdgeStride == lambert_batch_detail::kEdgeStride);
+static_assert(PolygonBatch::kEdgeChunk % PolygonBatch::kPadding == 0);
 namespace {
 
 std::atomic<bool> simd_enabled{true};
@@ -58,6 +63,7 @@ void PolygonBatch::push_back(const Vec3* v, int n) {
     vertex_count.resize(m, 0);
     for (AlignedDoubles* a : {&kind, &nx, &ny, &nz, &ox, &oy, &oz, &magnitude, &radius, &shape}) a->resize(m, 0.0);
   }
+  chunk_edges.clear();  // share_edges() again after the last polygon
   const int k = size++;
   vertex_count[k] = n;
   for (int c = 0; c < 4; ++c) {
@@ -94,6 +100,40 @@ int PolygonBatch::vertices(int k, Vec3 v[4]) const {
   return n;
 }
 
+void PolygonBatch::share_edges() {
+  const size_t m = static_cast<size_t>(padded);
+  for (int c = 0; c < 4; ++c) edge[c].assign(m, 0);
+  for (int i = 0; i < 2; ++i) ex[i].clear(), ey[i].clear(), ez[i].clear();
+  chunk_edges.assign(1, 0);
+  using Point = std::array<double, 3>;
+  std::map<std::pair<Point, Point>, int> found;  // a chunk's edges by their ends in increasing order
+  auto add_edge = [&](const Point& from, const Point& to) {
+    for (int i = 0; i < 2; ++i) {
+      const Point& q = i == 0 ? from : to;
+      ex[i].push_back(q[0]), ey[i].push_back(q[1]), ez[i].push_back(q[2]);
+    }
+    return static_cast<int>(ex[0].size()) - chunk_edges.back() - 1;
+  };
+  for (int first = 0; first < padded; first += kEdgeChunk) {
+    found.clear();
+    for (int k = first; k < std::min(padded, first + kEdgeChunk); ++k)
+      for (int c = 0; c < 4; ++c) {
+        const int d = (c + 1) % 4;
+        const Point from{x[c][k], y[c][k], z[c][k]}, to{x[d][k], y[d][k], z[d][k]};
+        if (kind[k] == 0.0) {  // padding, degenerate or non-finite: an edge of its own (no NaN as a key)
+          edge[c][k] = add_edge(from, to);
+          continue;
+        }
+        const bool forward = !(to < from);
+        auto [it, inserted] = found.try_emplace(forward ? std::pair(from, to) : std::pair(to, from), 0);
+        if (inserted) it->second = add_edge(it->first.first, it->first.second);
+        edge[c][k] = it->second + (forward ? 0 : kEdgeStride);
+      }
+    while ((ex[0].size() - size_t(chunk_edges.back())) % 4 != 0) add_edge({0, 0, 0}, {0, 0, 0});  // zero terms
+    chunk_edges.push_back(static_cast<int>(ex[0].size()));
+  }
+}
+
 int lambert_form_factors(const Receiver& receiver, const PolygonBatch& sources, int begin, int end, double* out) {
   if (begin < 0 || end > sources.size || begin > end)
     throw std::out_of_range("lambert_form_factors: range [" + std::to_string(begin) + ", " +
@@ -112,10 +152,17 @@ int lambert_form_factors(const Receiver& receiver, const PolygonBatch& sources, 
   view.magnitude = sources.magnitude.data(), view.radius = sources.radius.data(), view.shape = sources.shape.data();
   for (int i = 0; i < 3; ++i) view.p[i] = receiver.point[i], view.n[i] = receiver.normal[i];
   view.p_magnitude = inf_norm(receiver.point);
+  view.size = sources.size;
+  if (sources.edges_shared()) {
+    for (int i = 0; i < 2; ++i) view.ex[i] = sources.ex[i].data(), view.ey[i] = sources.ey[i].data(), view.ez[i] = sources.ez[i].data();
+    view.chunk_edges = sources.chunk_edges.data();
+    for (int c = 0; c < 4; ++c) view.edge[c] = sources.edge[c].data();
+  }
 
   // In chunks, so that the list of lanes left to the scalar kernel stays on the stack; chunk
-  // boundaries are multiples of the SIMD width, so no block is evaluated twice.
-  constexpr int kChunk = 256;
+  // boundaries are multiples of the SIMD width, so no block is evaluated twice, and are those of
+  // the shared edges.
+  constexpr int kChunk = PolygonBatch::kEdgeChunk;
   int scalar_lanes[kChunk];
   int scalar_calls = 0;
   for (int b = begin, e; b < end; b = e) {

@@ -85,6 +85,24 @@ struct PolygonBatch {
   // thin ones).
   AlignedDoubles magnitude, radius, shape;
 
+  // Shared edges (share_edges(); empty until then). Lambert's sum is over edges, and an edge two
+  // polygons share adds opposite terms to them: a_i × a_{i+1}, its length and a_i · a_{i+1} do not
+  // depend on the direction except for the sign of the cross product. So lambert_form_factors()
+  // computes each edge's term once per receiver and chunk of kEdgeChunk polygons (about 2 per
+  // quad of a mesh instead of 4), in both directions, and adds them up polygon by polygon in the
+  // same order as before: the same values bit for bit.
+  // Per chunk c (polygons [c·kEdgeChunk, (c + 1)·kEdgeChunk)): its distinct edges
+  // [chunk_edges[c], chunk_edges[c + 1]) (a multiple of 4 each, at most kEdgeStride; padding
+  // edges have zero length), edge e running from (ex[0][e], ey[0][e], ez[0][e]) to
+  // (ex[1][e], ey[1][e], ez[1][e]).
+  static constexpr int kEdgeChunk = 256;
+  static constexpr int kEdgeStride = 4 * kEdgeChunk;
+  std::array<AlignedDoubles, 2> ex, ey, ez;
+  std::vector<int> chunk_edges;  // chunks + 1 entries
+  // Polygon k's edge from corner c to corner c + 1 (mod 4): edge[c][k] = i for its chunk's edge
+  // chunk_edges[chunk] + i run forwards, kEdgeStride + i for it run backwards. `padded` entries.
+  std::array<std::vector<int>, 4> edge;
+
   PolygonBatch() = default;
   // From a list of polygons of 3 or 4 vertices (std::invalid_argument for more than 4; fewer
   // than 3 is accepted and gives F = 0, as in the scalar kernel).
@@ -97,6 +115,12 @@ struct PolygonBatch {
 
   // Polygon k's vertices as given (vertex_count[k] of them) into `v`; returns their number.
   int vertices(int k, Vec3 v[4]) const;
+
+  // Finds the edges shared within each chunk (equal end points, either direction; polygons of
+  // kind 0 share none) and fills the tables above. Call after the last push_back(), which
+  // forgets them.
+  void share_edges();
+  bool edges_shared() const { return !chunk_edges.empty(); }
 };
 
 // out[k - begin] = lambert_form_factor(receiver, polygon k) for k in [begin, end),
@@ -158,10 +182,18 @@ struct View {
   const double *kind, *nx, *ny, *nz, *ox, *oy, *oz, *magnitude, *radius, *shape;
   double p[3], n[3];   // receiver point and normal
   double p_magnitude;  // max |p coordinate|
+  // Shared edges (PolygonBatch::share_edges), or null: then every polygon sums its own edges.
+  int size;  // number of polygons
+  const double *ex[2], *ey[2], *ez[2];
+  const int* chunk_edges;
+  const int* edge[4];
 };
+inline constexpr int kEdgeChunk = 256;        // = PolygonBatch::kEdgeChunk
+inline constexpr int kEdgeStride = 4 * kEdgeChunk;  // = PolygonBatch::kEdgeStride
 // Writes out[k - begin] for k in [begin, end) — the form factor, or 0 — and the indices k whose
 // value the scalar kernel must supply into scalar_lanes (end - begin entries suffice); returns
-// how many there are.
+// how many there are. [begin, end) lies within one chunk of kEdgeChunk polygons; when it is the
+// whole chunk and the view has shared edges, each of the chunk's edges is evaluated once.
 int lambert_avx2(const View& view, int begin, int end, double* out, int* scalar_lanes);
 bool simd_atan2_avx2(const double* y, const double* x, double* out, int n);
 // Θ_k proj[k] / √len2[k] (0 where len2[k] = 0) into out[k], k < n.
