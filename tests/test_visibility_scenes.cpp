@@ -252,6 +252,8 @@ TEST(VisibilityScenes, CoplanarNeighboursAndSeamsDoNotLeak) {
 // The hierarchical culler (face, tile of patches, patch) gives a subset of the pair's own
 // occluders that is still enough for exact clipping, for patch receivers and for point
 // receivers, on a busy room whose floor has many tiles. It culls at least as much as the pair test.
+// For tiles of 1, 16 (the patch receivers') and 64 (PointVisibility's) patches, each tile holding
+// at most that many patches of one face.
 TEST(VisibilityScenes, GroupedCullerKeepsEveryOccluderItNeeds) {
   Scene room = builders::unit_cube(0.5, 1.0);
   for (int a = 0; a < 4; ++a)
@@ -259,39 +261,54 @@ TEST(VisibilityScenes, GroupedCullerKeepsEveryOccluderItNeeds) {
       builders::add_box(room, Vec3(0.08 + a / 4.5, 0.08 + b / 4.5, 0.0), Vec3(0.18 + a / 4.5, 0.18 + b / 4.5, 0.1 + 0.1 * ((a + b) % 3)));
   const PatchMesh mesh = subdivide(room, {0.06, 0.0});
   const ShaftCuller culler(room);
-  GroupedShaftCuller grouped(culler, mesh);
-  std::vector<int> everything(culler.face_count()), occ, occ_grouped;
-  std::iota(everything.begin(), everything.end(), 0);
-  const double tol = plane_tolerance(mesh);
-  int checked = 0, culled_pair = 0, culled_grouped = 0, occluded = 0;
-  Vec3 a[4], b[4];
-  for (int i = 0; i < mesh.size(); i += 37) {
-    mesh.polygon(i, a);
-    const Patch& pi = mesh.patches[i];
-    for (bool point : {false, true}) {
-      const Vec3* receiver = point ? &pi.centroid : a;
-      const int nr = point ? 1 : pi.corner_count;
-      grouped.set_receiver(receiver, nr);
-      for (int j = i % 5; j < mesh.size(); j += 5) {
-        if (i == j || facing_away(mesh, i, j, tol)) continue;
-        mesh.polygon(j, b);
-        const int nb = mesh.patches[j].corner_count;
-        culler.occluders(receiver, nr, b, nb, occ);
-        grouped.occluders(j, b, nb, occ_grouped);
-        EXPECT_TRUE(std::includes(occ.begin(), occ.end(), occ_grouped.begin(), occ_grouped.end())) << i << " " << j;
-        const Receiver x{pi.centroid, pi.normal};
-        const double fv = exact_visible_form_factor(x, b, nb, culler.faces(), everything);
-        EXPECT_NEAR(exact_visible_form_factor(x, b, nb, culler.faces(), occ_grouped), fv, 1e-13) << i << " " << j;
-        occluded += fv < lambert_form_factor(x, b, nb) - 1e-12;
-        culled_pair += occ.empty();
-        culled_grouped += occ_grouped.empty();
-        ++checked;
+  EXPECT_THROW(GroupedShaftCuller(culler, mesh, 0), std::invalid_argument);
+  int previous_tiles = mesh.size() + 1;
+  for (const int tile_patches : {1, kTilePatches, kPointTilePatches}) {
+    SCOPED_TRACE("tiles of " + std::to_string(tile_patches));
+    GroupedShaftCuller grouped(culler, mesh, tile_patches);
+    std::vector<int> per_tile(size_t(grouped.tile_count()), 0);
+    for (int j = 0; j < mesh.size(); ++j) {
+      const int t = grouped.tile_of(j);
+      ASSERT_GE(t, 0);
+      EXPECT_EQ(grouped.tile_face(t), mesh.patches[j].face);
+      ++per_tile[size_t(t)];
+    }
+    EXPECT_LE(*std::max_element(per_tile.begin(), per_tile.end()), tile_patches);
+    EXPECT_LT(grouped.tile_count(), previous_tiles);
+    previous_tiles = grouped.tile_count();
+    std::vector<int> everything(culler.face_count()), occ, occ_grouped;
+    std::iota(everything.begin(), everything.end(), 0);
+    const double tol = plane_tolerance(mesh);
+    int checked = 0, culled_pair = 0, culled_grouped = 0, occluded = 0;
+    Vec3 a[4], b[4];
+    for (int i = 0; i < mesh.size(); i += 37) {
+      mesh.polygon(i, a);
+      const Patch& pi = mesh.patches[i];
+      for (bool point : {false, true}) {
+        const Vec3* receiver = point ? &pi.centroid : a;
+        const int nr = point ? 1 : pi.corner_count;
+        grouped.set_receiver(receiver, nr);
+        for (int j = i % 5; j < mesh.size(); j += 5) {
+          if (i == j || facing_away(mesh, i, j, tol)) continue;
+          mesh.polygon(j, b);
+          const int nb = mesh.patches[j].corner_count;
+          culler.occluders(receiver, nr, b, nb, occ);
+          grouped.occluders(j, b, nb, occ_grouped);
+          EXPECT_TRUE(std::includes(occ.begin(), occ.end(), occ_grouped.begin(), occ_grouped.end())) << i << " " << j;
+          const Receiver x{pi.centroid, pi.normal};
+          const double fv = exact_visible_form_factor(x, b, nb, culler.faces(), everything);
+          EXPECT_NEAR(exact_visible_form_factor(x, b, nb, culler.faces(), occ_grouped), fv, 1e-13) << i << " " << j;
+          occluded += fv < lambert_form_factor(x, b, nb) - 1e-12;
+          culled_pair += occ.empty();
+          culled_grouped += occ_grouped.empty();
+          ++checked;
+        }
       }
     }
+    EXPECT_GT(checked, 5000);
+    EXPECT_GT(occluded, 100);
+    EXPECT_GE(culled_grouped, culled_pair);
   }
-  EXPECT_GT(checked, 5000);
-  EXPECT_GT(occluded, 100);
-  EXPECT_GE(culled_grouped, culled_pair);
 }
 
 // Convex solids (the furniture's boxes) cast their shadows with the faces toward the receiver

@@ -533,14 +533,12 @@ void ShaftCuller::occluders_among(const Vec3* a, int na, const Vec3* b, int nb, 
 
 namespace {
 
-constexpr int kTilePatches = 16;
-
 // Splits patches[first, first + count) (indices of one face's patches, with their centroids'
 // in-plane coordinates uv) at the median of the longer extent until each part has at most
-// kTilePatches; appends the parts' ranges.
+// tile_patches; appends the parts' ranges.
 void split_tiles(std::vector<int>& patches, const std::vector<Eigen::Vector2d>& uv, int first, int count,
-                 std::vector<std::pair<int, int>>& ranges) {
-  if (count <= kTilePatches) {
+                 int tile_patches, std::vector<std::pair<int, int>>& ranges) {
+  if (count <= tile_patches) {
     ranges.emplace_back(first, count);
     return;
   }
@@ -550,14 +548,15 @@ void split_tiles(std::vector<int>& patches, const std::vector<Eigen::Vector2d>& 
   const int half = count / 2;
   std::nth_element(patches.begin() + first, patches.begin() + first + half, patches.begin() + first + count,
                    [&](int x, int y) { return uv[size_t(x)][axis] < uv[size_t(y)][axis]; });
-  split_tiles(patches, uv, first, half, ranges);
-  split_tiles(patches, uv, first + half, count - half, ranges);
+  split_tiles(patches, uv, first, half, tile_patches, ranges);
+  split_tiles(patches, uv, first + half, count - half, tile_patches, ranges);
 }
 
 }  // namespace
 
-GroupedShaftCuller::GroupedShaftCuller(const ShaftCuller& culler, const PatchMesh& mesh)
+GroupedShaftCuller::GroupedShaftCuller(const ShaftCuller& culler, const PatchMesh& mesh, int tile_patches)
     : culler_(&culler), tile_of_patch_(size_t(mesh.size()), -1) {
+  if (tile_patches < 1) throw std::invalid_argument("GroupedShaftCuller: tile_patches must be at least 1");
   const int faces = culler.face_count();
   std::vector<std::vector<int>> by_face(static_cast<size_t>(faces));
   for (int j = 0; j < mesh.size(); ++j)
@@ -573,7 +572,7 @@ GroupedShaftCuller::GroupedShaftCuller(const ShaftCuller& culler, const PatchMes
     const Vec3 u = w.unitOrthogonal(), v = w.cross(u);
     for (int j : patches) uv[size_t(j)] = Eigen::Vector2d(u.dot(mesh.patches[size_t(j)].centroid), v.dot(mesh.patches[size_t(j)].centroid));
     std::vector<std::pair<int, int>> ranges;
-    split_tiles(patches, uv, 0, static_cast<int>(patches.size()), ranges);
+    split_tiles(patches, uv, 0, static_cast<int>(patches.size()), tile_patches, ranges);
     for (const auto& [first, count] : ranges) {
       Eigen::AlignedBox3d box;  // in (u, v, w) coordinates
       for (int k = first; k < first + count; ++k) {
@@ -1131,7 +1130,8 @@ struct PointVisibility::Impl {
   std::vector<unsigned char> no_occluders;
   std::vector<unsigned char> bounding;  // per face: every scene corner on one side of its plane
 
-  Impl(const Visibility& v, const PatchMesh& mesh, PointCulling culling) : vis(&v), grouped(v.culler(), mesh) {
+  Impl(const Visibility& v, const PatchMesh& mesh, PointCulling culling)
+      : vis(&v), grouped(v.culler(), mesh, kPointTilePatches) {
     tiles.resize(size_t(grouped.tile_count()));
     cones = culling == PointCulling::Cones ||
             (culling == PointCulling::Auto && v.culler().face_count() <= kConeCullingFaces);
