@@ -7,9 +7,9 @@
 #include <atomic>
 #include <cmath>
 #include <map>
-#include <utility>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace photometria {
 static_assert(PolygonBatch::kPadding == lambert_batch_detail::kPadding);

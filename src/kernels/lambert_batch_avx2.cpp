@@ -146,9 +146,6 @@ inline B lambert_sum(const V3* a, const V3& N, B& abs_sum) {
   return sum;
 }
 
-// Lanes k..k+3: the form factors of the "simple" lanes into res (0 elsewhere), and which lanes
-// are simple and which are exactly zero (bit l for lane k + l); every other lane needs the
-// scalar kernel.
 // Polygon k..k+3's edge sum from the chunk's edge terms (shared_edge_terms below), added in the
 // order lambert_sum() adds them, and Σ|term|. A triangle's corner 3 repeats corner 2: its edge
 // 2 has zero length and adds +0, which leaves the sum as lambert_sum<3>() forms it. (Four scalar
@@ -165,6 +162,9 @@ inline B gathered_sum(const View& v, int k, const double* terms, B& abs_sum) {
   return sum;
 }
 
+// Lanes k..k+3: the form factors of the "simple" lanes into res (0 elsewhere), and which lanes
+// are simple and which are exactly zero (bit l for lane k + l); every other lane needs the
+// scalar kernel.
 // kEdges = 3 or 4: the polygons' own edges (lambert_sum); 0: their chunk's shared edge terms.
 template <int kEdges>
 void block(const View& v, int k, double* res, int& simple_bits, int& zero_bits, const double* terms = nullptr) {
