@@ -230,8 +230,9 @@ void block(const View& v, int k, double* res, int& simple_bits, int& zero_bits, 
   xsimd::select(simple, clamped, B(0.0)).store_aligned(res);
 }
 
-// One edge's term Θ N·(a × b)/|a × b| for a polygon that runs it from a to b (ends relative
-// to p): lambert_sum()'s, operation for operation, with its cross product on the shorter end
+// One edge's term Θ N·(a × b)/|a × b|, Θ = atan2(|a × b|, a·b) (seed 000 eq. 1, seed 002
+// eq. 3), for a polygon that runs it from a to b (ends relative to p): lambert_sum()'s,
+// operation for operation, with its cross product on the shorter end
 // (a where both are equally far).
 struct EdgeParts {
   B len, cos_part, normal_part;
@@ -253,6 +254,7 @@ template <int n>
 void shared_edge_terms(const View& v, int first, const V3& p, const V3& N, double* terms) {
   V3 a[n], b[n];
   B len[n], cos_part[n], normal_part[n], theta[n];
+  M tie[n];
   int ties = 0;
   for (int i = 0; i < n; ++i) {
     const int e = first + kWidth * i;
@@ -260,7 +262,8 @@ void shared_edge_terms(const View& v, int first, const V3& p, const V3& N, doubl
     b[i] = V3{B::load_aligned(v.ex[1] + e), B::load_aligned(v.ey[1] + e), B::load_aligned(v.ez[1] + e)} - p;
     const EdgeParts parts = edge_parts(a[i], b[i], N);
     len[i] = parts.len, cos_part[i] = parts.cos_part, normal_part[i] = parts.normal_part;
-    ties |= bits(dot(a[i], a[i]) == dot(b[i], b[i]));
+    tie[i] = dot(a[i], a[i]) == dot(b[i], b[i]);
+    ties |= bits(tie[i]);
   }
   for (int i = 0; i < n; ++i) len[i] = xsimd::sqrt(len[i]);
   atan2_upper<n>(len, cos_part, theta);
@@ -272,15 +275,14 @@ void shared_edge_terms(const View& v, int first, const V3& p, const V3& N, doubl
   }
   if (ties == 0) return;
   for (int i = 0; i < n; ++i) {  // the backwards terms of the tied lanes, from b to a
-    const M tie = dot(a[i], a[i]) == dot(b[i], b[i]);
-    if (bits(tie) == 0) continue;
+    if (bits(tie[i]) == 0) continue;
     const EdgeParts parts = edge_parts(b[i], a[i], N);
     const B length = xsimd::sqrt(parts.len);
     B angle;
     atan2_upper<1>(&length, &parts.cos_part, &angle);
     const B term = xsimd::select(length == B(0.0), B(0.0), (angle * parts.normal_part) / length);
     double* out = terms + kEdgeStride + kWidth * i;
-    xsimd::select(tie, term, B::load_aligned(out)).store_aligned(out);
+    xsimd::select(tie[i], term, B::load_aligned(out)).store_aligned(out);
   }
 }
 
