@@ -139,6 +139,7 @@ class GroupedShaftCuller {
   // rectangle in a flat face's plane, containing its patches; 8 for a box) and the occluders of
   // the receiver–tile shaft.
   int tile_of(int patch) const;
+  const std::vector<int>& tile_of_patches() const { return tile_of_patch_; }  // tile_of for every patch
   int tile_corner_count(int tile) const { return tile_corner_counts_[size_t(tile)]; }
   int tile_face(int tile) const { return tiles_[size_t(tile)].face; }
   const Vec3* tile_corners(int tile) const { return tiles_[size_t(tile)].corners; }
@@ -268,10 +269,15 @@ class PointVisibility {
   // visible() returns `unoccluded` with `unshadowed` set, so a caller may skip it and the
   // patch's corners. False says nothing (visible() decides).
   bool tile_unshadowed(int patch);
+  // The tile of a patch of the mesh (-1: none). tile_unshadowed() depends on the patch's tile
+  // alone, so a caller that visits patches in order asks once per run of one tile's patches
+  // (a tile's patches are neighbours on a face, so runs are a grid row long).
+  int tile_of(int patch) const { return tile_of_patch_[size_t(patch)]; }
 
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
+  const int* tile_of_patch_ = nullptr;  // the culler's, in impl_ (which moves with its owner)
 };
 
 // What the form-factor fill and the vertex gather use: the culler plus one of the two methods.
