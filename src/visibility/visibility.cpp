@@ -1397,13 +1397,14 @@ double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& no
   rel.resize(size_t(nb));
   // The box from scalars: AlignedBox::extend kept its corners on the stack and reloaded them
   // across two stores, a stalled store forward per corner (perf: an eighth of this function).
-  double lo[3], hi[3];
-  for (int k = 0; k < nb; ++k) {
+  rel[0] = b[0] - m.x.point;
+  double lo[3] = {rel[0].x(), rel[0].y(), rel[0].z()}, hi[3] = {lo[0], lo[1], lo[2]};
+  for (int k = 1; k < nb; ++k) {
     const Vec3 y = b[k] - m.x.point;
     rel[size_t(k)] = y;
     for (int a = 0; a < 3; ++a) {
-      lo[a] = k == 0 ? y[a] : std::min(lo[a], y[a]);
-      hi[a] = k == 0 ? y[a] : std::max(hi[a], y[a]);
+      lo[a] = std::min(lo[a], y[a]);
+      hi[a] = std::max(hi[a], y[a]);
     }
   }
   const Eigen::AlignedBox3d box(Vec3(lo[0], lo[1], lo[2]), Vec3(hi[0], hi[1], hi[2]));
