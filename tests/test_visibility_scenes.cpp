@@ -382,7 +382,7 @@ TEST(VisibilityScenes, PointVisibilityPerTileEqualsClippingEachPatch) {
       std::vector<int> everything(vis.culler().face_count());
       std::iota(everything.begin(), everything.end(), 0);
       const double tol = plane_tolerance(mesh);
-      int checked = 0, shadowed = 0, partly = 0;
+      int checked = 0, shadowed = 0, partly = 0, tile_hidden = 0, tile_clear = 0;
       long long rays = 0;
       Vec3 b[4];
       // The tree culling (the default for scenes of many faces) on every third receiver of these.
@@ -409,8 +409,22 @@ TEST(VisibilityScenes, PointVisibilityPerTileEqualsClippingEachPatch) {
             const double want =
                 std::min(f0, exact_visible_form_factor(x, b, pj.corner_count, vis.culler().faces(), everything));
             bool unshadowed = false;
+            // Asked before visible() on every other receiver, after it on the others: the answer
+            // must not depend on whether the tile was clipped already.
+            using TileShadow = PointVisibility::TileShadow;
+            const TileShadow before = (i / step) % 2 ? from_point.tile_shadow(j) : TileShadow::Unknown;
             const double got = from_point.visible(j, b, pj.corner_count, pj.normal, f0, 0, 0, rays, unshadowed);
             ASSERT_NEAR(got, want, 1e-13 + 1e-12 * f0) << "receiver " << i << " corner " << corner << " patch " << j;
+            const TileShadow tile = (i / step) % 2 ? before : from_point.tile_shadow(j);
+            if (tile == TileShadow::None) {
+              ASSERT_EQ(got, f0) << "receiver " << i << " corner " << corner << " patch " << j;
+              ASSERT_TRUE(unshadowed);
+              ++tile_clear;
+            } else if (tile == TileShadow::Full) {
+              ASSERT_EQ(got, 0.0) << "receiver " << i << " corner " << corner << " patch " << j;
+              ASSERT_FALSE(unshadowed);
+              ++tile_hidden;
+            }
             if (unshadowed) {
               EXPECT_NEAR(want, f0, 1e-13 + 1e-12 * f0) << i << " " << j;
             }
@@ -423,6 +437,8 @@ TEST(VisibilityScenes, PointVisibilityPerTileEqualsClippingEachPatch) {
       EXPECT_GT(checked, culling == PointCulling::Cones ? 20000 : 6000);
       EXPECT_GT(shadowed, 30);
       EXPECT_GT(partly, 30);
+      EXPECT_GT(tile_clear, checked / 10);
+      EXPECT_GT(tile_hidden, 0);
       EXPECT_EQ(rays, 0);
     }
   }
@@ -476,7 +492,7 @@ TEST(VisibilityScenes, PointVisibilityAtTheSamePointWithAnotherNormal) {
       const double got = reused.visible(j, b, pj.corner_count, pj.normal, f0, 0, 0, rays, u2);
       ASSERT_EQ(got, want) << "patch " << j;
       ASSERT_EQ(u1, u2) << "patch " << j;
-      EXPECT_EQ(reused.tile_unshadowed(j), fresh.tile_unshadowed(j)) << "patch " << j;
+      EXPECT_EQ(reused.tile_shadow(j), fresh.tile_shadow(j)) << "patch " << j;
       shadowed += !u1;
       ++compared;
     }

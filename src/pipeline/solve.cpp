@@ -128,15 +128,16 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
       const Receiver receiver{x.position, x.normal, x.approach};
       PointVisibility* from_point = vis ? &point_visibility[size_t(omp_get_thread_num())] : nullptr;
       if (from_point) from_point->set_receiver(receiver);
-      // from_point->tile_unshadowed, asked once per run of one tile's patches (it depends on the tile alone).
+      // from_point->tile_shadow, asked once per run of one tile's patches (it depends on the tile alone).
+      using TileShadow = PointVisibility::TileShadow;
       int run_tile = -2;
-      bool run_unshadowed = false;
-      auto tile_unshadowed = [&](int j) {
+      TileShadow run_shadow = TileShadow::Unknown;
+      auto tile_shadow = [&](int j) {
         if (const int t = from_point->tile_of(j); t != run_tile) {
           run_tile = t;
-          run_unshadowed = from_point->tile_unshadowed(j);
+          run_shadow = from_point->tile_shadow(j);
         }
-        return run_unshadowed;
+        return run_shadow;
       };
       thread_local std::vector<Facing> facing;
       facing.resize(size_t(mesh.size()));
@@ -154,8 +155,12 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
             (facing[size_t(j)] == Facing::Test && point_facing_away(mesh, x.position, x.normal, j, tol)))
           continue;
         ++evaluated;
-        if (f > 0.0 && from_point && tile_unshadowed(j)) {
+        const TileShadow shadow = f > 0.0 && from_point ? tile_shadow(j) : TileShadow::Unknown;
+        if (shadow == TileShadow::None) {
           ++tested, ++culled;  // the patch's tile is unshadowed: f stands, without the patch's corners
+        } else if (shadow == TileShadow::Full) {
+          ++tested;  // the patch's tile is hidden: nothing to add, without the patch's corners
+          continue;
         } else if (f > 0.0 && from_point) {
           mesh.polygon(j, src);
           ++tested;

@@ -1358,12 +1358,16 @@ void PointVisibility::set_receiver(const Receiver& x) {
   ++impl_->generation;
 }
 
-bool PointVisibility::tile_unshadowed(int patch) {
+PointVisibility::TileShadow PointVisibility::tile_shadow(int patch) {
   Impl& m = *impl_;
   const int t = m.grouped.tile_of(patch);
-  if (m.vis->method() == VisibilityMethod::Rays || t < 0 || m.grouped.tile_corner_count(t) != 4) return false;
+  if (m.vis->method() == VisibilityMethod::Rays || t < 0 || m.grouped.tile_corner_count(t) != 4)
+    return TileShadow::Unknown;
   if (!m.receiver_set) m.grouped.set_receiver(&m.x.point, 1), m.receiver_set = true;
-  return m.tile_unoccluded(t);
+  if (m.tile_unoccluded(t)) return TileShadow::None;
+  const Impl::TileClip& c = m.clip(t);
+  if (!c.cut) return TileShadow::None;
+  return c.visible == 0 ? TileShadow::Full : TileShadow::Unknown;
 }
 
 double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& normal, double unoccluded, int rays,

@@ -264,12 +264,15 @@ class PointVisibility {
   // (added to rays_cast); exact mode ignores both.
   double visible(int patch, const Vec3* b, int nb, const Vec3& normal, double unoccluded, int rays, uint64_t stream,
                  long long& rays_cast, bool& unshadowed);
-  // True when patch `patch` (of 3 or 4 corners) is unshadowed from the point by what its tile
-  // alone tells: exact mode, a flat tile whose shaft from the point holds no occluder. Then
-  // visible() returns `unoccluded` with `unshadowed` set, so a caller may skip it and the
-  // patch's corners. False says nothing (visible() decides).
-  bool tile_unshadowed(int patch);
-  // The tile of a patch of the mesh (-1: none). tile_unshadowed() depends on the patch's tile
+  // What patch `patch`'s tile alone tells of the patch's shadow from the point (exact mode, a
+  // flat tile): None, its shaft from the point holds no occluder, so visible() returns
+  // `unoccluded` with `unshadowed` set; Full, its clipping left no visible piece, so visible()
+  // returns 0 (for unoccluded > 0) with `unshadowed` cleared. Either way a caller may skip
+  // visible() and the patch's corners. Unknown says nothing (visible() decides). Full clips the
+  // tile, as visible() would for any of its patches.
+  enum class TileShadow { Unknown, None, Full };
+  TileShadow tile_shadow(int patch);
+  // The tile of a patch of the mesh (-1: none). tile_shadow() depends on the patch's tile
   // alone, so a caller that visits patches in order asks once per run of one tile's patches
   // (a tile's patches are neighbours on a face, so runs are a grid row long).
   int tile_of(int patch) const { return tile_of_patch_[size_t(patch)]; }
