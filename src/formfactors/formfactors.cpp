@@ -132,7 +132,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
       return kernel[size_t(q) * n + j];
     };
     for (int j = 0; j < n; ++j) {
-      if (prefetch) mesh.prefetch(j + 16, j + 8);
+      if (prefetch) mesh.prefetch(j + 16);
       if (j == i) continue;
       const bool analytic = rects && rects->eligible(i, j);
       double area_factor = 0.0;

@@ -39,14 +39,17 @@ struct PatchMesh {
     const Patch& p = patches[size_t(patch)];
     for (int k = 0; k < p.corner_count; ++k) out[k] = points[size_t(p.corners[size_t(k)])];
   }
-  // Asks the CPU to fetch patch `ahead`'s record and patch `near`'s corner points into the cache
-  // (no effect on results). A fill row or a gather point visits every patch once, with visibility
-  // work in between that evicts what it read, so a large mesh's patches and points (22,000
-  // patches: 1.8 MB and 0.6 MB) arrive from memory one miss at a time unless asked for early.
-  // Call with ahead > near > the patch in hand; out-of-range indices are ignored. Worth it only
-  // where the patches outgrow the core's cache (prefetch_pays()); below, it costs instructions only.
-  bool prefetch_pays() const { return size() >= 4096; }  // 4,096 patches: 320 KiB of records + their points
-  void prefetch(int ahead, int near) const {
+  // Asks the CPU to fetch patch `ahead`'s record into the cache (no effect on results). A fill
+  // row or a gather point visits every patch once, with visibility work in between that evicts
+  // what it read, so a large mesh's patch records (22,000 patches: 1.8 MB) arrive from memory
+  // one miss at a time unless asked for early. Out-of-range indices are ignored. Worth it only
+  // where the patches outgrow the core's cache (prefetch_pays()); below, it costs instructions
+  // only. The patches' corner points are not fetched: most pairs are settled by their tile
+  // (PointVisibility::tile_shadow) without corners, and fetching them for every patch cost
+  // 2% of the 22,419-patch bench room's wall time (docs/performance.md).
+  bool prefetch_pays() const { return size() >= 4096; }  // 4,096 patches: 320 KiB of records
+  void prefetch(int ahead) const {
+    if (ahead >= size()) return;
     // As an asm statement: GCC treats __builtin_prefetch as free of side effects, so a function
     // made only of them counts as pure and its calls are deleted.
     auto prefetch_line = [](const void* address) {
@@ -56,15 +59,9 @@ struct PatchMesh {
       __builtin_prefetch(address);
 #endif
     };
-    if (ahead < size()) {
-      const char* record = reinterpret_cast<const char*>(&patches[size_t(ahead)]);
-      prefetch_line(record);
-      prefetch_line(record + sizeof(Patch) - 1);
-    }
-    if (near < size()) {
-      const Patch& p = patches[size_t(near)];
-      for (int k = 0; k < p.corner_count; ++k) prefetch_line(&points[size_t(p.corners[size_t(k)])]);
-    }
+    const char* record = reinterpret_cast<const char*>(&patches[size_t(ahead)]);
+    prefetch_line(record);
+    prefetch_line(record + sizeof(Patch) - 1);
   }
 };
 

@@ -147,7 +147,7 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
       kernel.resize(mesh.size());
       lambert_form_factors_facing(receiver, sources, facing.data(), kernel.data());
       for (int j = 0; j < mesh.size(); ++j) {
-        if (prefetch) mesh.prefetch(j + 16, j + 8);
+        if (prefetch) mesh.prefetch(j + 16);
         double f = kernel[j];
         if (f == 0.0) continue;  // behind the patch, below the horizon, or edge-on: nothing to add
         const Patch& pj = mesh.patches[j];
