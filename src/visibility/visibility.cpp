@@ -1025,14 +1025,15 @@ Span clip_to_planes(Span in, const Plane* planes, int count, double eps, Polygon
   Span out = in;
   for (int p = 0; p < count; ++p) {
     s.resize(out.n);
-    bool all_in = true, all_out = true;
+    // Counted, not and-ed: no branch per vertex (the sides are unpredictable).
+    size_t in_count = 0, out_count = 0;
     for (size_t k = 0; k < out.n; ++k) {
       s[k] = planes[p].m.dot(out.p[k]) - planes[p].d;
-      all_in = all_in && s[k] >= -eps;
-      all_out = all_out && s[k] <= eps;
+      in_count += s[k] >= -eps;
+      out_count += s[k] <= eps;
     }
-    if (all_in) continue;
-    if (all_out) return {};
+    if (in_count == out.n) continue;  // all on or inside
+    if (out_count == out.n) return {};  // all on or outside
     clip_keep(out.p, out.n, s, tmp);
     work.swap(tmp);
     if (work.empty()) return {};
