@@ -86,6 +86,51 @@ TEST(FormFactorStorage, SparseStoresOnlyNonZerosAndSetRowReplaces) {
   EXPECT_EQ(visited, 1);
 }
 
+// check_form_factors reads a dense matrix once, in tiles, with the row sums gathered per thread:
+// it must report what a plain pass over every entry reports, for sizes that end inside a tile.
+TEST(FormFactorStorage, ChecksEqualAPlainPassOverEveryEntry) {
+  for (const int n : {1, 37, 150}) {
+    PatchMesh mesh;
+    mesh.patches.resize(size_t(n));
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> u(0.5, 2.0);
+    for (Patch& p : mesh.patches) p.area = u(rng);
+    FormFactorMatrix m = random_matrix(n, 0.3, 11);
+    if (n > 1) {
+      m(n - 1, 0) = 0.75;  // the largest entry, below the diagonal in the last tile
+      m(0, n - 1) = 0.0;
+      m(n - 1, n - 1) = 0.05;  // a diagonal entry counts in the row sum, not in the entries
+    }
+    for (MatrixLayout layout : kLayouts)
+      for (MatrixPrecision precision : kPrecisions) {
+        const FormFactors F = stored(m, layout, precision);
+        SCOPED_TRACE(F.description() + " n = " + std::to_string(n));
+        const FormFactorMatrix d = F.to_dense();
+        double min_entry = 1.0, max_entry = 0.0, recip = 0.0;
+        for (int i = 0; i < n; ++i)
+          for (int j = 0; j < n; ++j) {
+            if (j == i) continue;
+            min_entry = std::min(min_entry, d(i, j));
+            max_entry = std::max(max_entry, d(i, j));
+            const double ai = mesh.patches[size_t(i)].area, aj = mesh.patches[size_t(j)].area;
+            recip = std::max(recip, std::abs(ai * d(i, j) - aj * d(j, i)) / std::min(ai, aj));
+          }
+        const Eigen::VectorXd rows = d.rowwise().sum();
+        const FormFactorChecks c = check_form_factors(mesh, F);
+        EXPECT_EQ(c.min_entry, n == 1 ? 0.0 : min_entry);
+        EXPECT_EQ(c.max_entry, max_entry);
+        EXPECT_EQ(c.reciprocity_error, recip);
+        EXPECT_NEAR(c.min_row_sum, rows.minCoeff(), 1e-14);  // summed in another order
+        EXPECT_NEAR(c.max_row_sum, rows.maxCoeff(), 1e-14);
+        if (n > 1) {
+          EXPECT_EQ(c.max_entry, precision == MatrixPrecision::Float ? double(0.75f) : 0.75);
+          EXPECT_EQ(c.min_entry, 0.0);
+          EXPECT_GT(c.reciprocity_error, 0.1);
+        }
+      }
+  }
+}
+
 TEST(FormFactorStorage, AutoPicksTheSmallerLayout) {
   const double n = 1000;
   // Sparse double costs 12 bytes per entry against 8 per dense entry: break-even at 2/3 density.

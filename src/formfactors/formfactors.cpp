@@ -298,58 +298,68 @@ FormFactorChecks check_form_factors(const PatchMesh& mesh, const FormFactors& F)
   FormFactorChecks c;
   const int n = mesh.size();
   if (n == 0) return c;
-  double min_entry = 1.0, max_entry = 0.0, min_row = F.row_sum(0), max_row = min_row, recip = 0.0;
-  // Entries and row sums, row by row.
-#pragma omp parallel for schedule(dynamic, 16) reduction(min : min_entry, min_row) reduction(max : max_entry, max_row)
-  for (int i = 0; i < n; ++i) {
-    double row = 0.0;
-    int stored = 0;
-    F.for_each_in_row(i, [&](int j, double f) {
-      row += f;
-      if (j == i) return;
-      ++stored;
-      min_entry = std::min(min_entry, f);
-      max_entry = std::max(max_entry, f);
-    });
-    if (stored < n - 1) min_entry = std::min(min_entry, 0.0);  // unstored (sparse) entries are 0
-    min_row = std::min(min_row, row);
-    max_row = std::max(max_row, row);
-  }
-  // Reciprocity |A_i F_ij − A_j F_ji| / min(A_i, A_j), each unordered pair once.
+  double min_entry = 1.0, max_entry = 0.0, recip = 0.0;
+  std::vector<double> row_sums(size_t(n), 0.0);
   if (F.layout() == MatrixLayout::Dense) {
-    // In 64 × 64 tiles (I, J >= I), so that F_ji is read from a cached tile, not a far row.
+    // One pass over F in 64 × 64 tiles (I, J >= I), so that F_ji is read from a cached tile, not
+    // a far row: each entry is read once, as F_ij or F_ji of a pair i < j or on the diagonal. A
+    // dense matrix is read from memory once rather than twice (entries and row sums, then
+    // reciprocity); the row sums gather per thread, a row's entries coming from many tiles.
     constexpr int kTile = 64;
     const int tiles = (n + kTile - 1) / kTile;
-#pragma omp parallel for schedule(dynamic, 1) reduction(max : recip)
-    for (int bi = 0; bi < tiles; ++bi)
-      for (int bj = bi; bj < tiles; ++bj) {
-        const int i1 = std::min(n, (bi + 1) * kTile), j1 = std::min(n, (bj + 1) * kTile);
-        for (int i = bi * kTile; i < i1; ++i) {
-          const double ai = mesh.patches[i].area;
-          for (int j = std::max(i + 1, bj * kTile); j < j1; ++j) {
-            const double aj = mesh.patches[j].area;
-            recip = std::max(recip, std::abs(ai * F(i, j) - aj * F(j, i)) / std::min(ai, aj));
+    std::vector<std::vector<double>> partial(static_cast<size_t>(omp_get_max_threads()));
+#pragma omp parallel reduction(max : recip, max_entry) reduction(min : min_entry)
+    {
+      std::vector<double>& rows = partial[size_t(omp_get_thread_num())];
+      rows.assign(size_t(n), 0.0);
+#pragma omp for schedule(dynamic, 1)
+      for (int bi = 0; bi < tiles; ++bi)
+        for (int bj = bi; bj < tiles; ++bj) {
+          const int i1 = std::min(n, (bi + 1) * kTile), j1 = std::min(n, (bj + 1) * kTile);
+          for (int i = bi * kTile; i < i1; ++i) {
+            const double ai = mesh.patches[i].area;
+            if (bj == bi) rows[size_t(i)] += F(i, i);
+            for (int j = std::max(i + 1, bj * kTile); j < j1; ++j) {
+              const double aj = mesh.patches[j].area, fij = F(i, j), fji = F(j, i);
+              rows[size_t(i)] += fij;
+              rows[size_t(j)] += fji;
+              min_entry = std::min(min_entry, std::min(fij, fji));
+              max_entry = std::max(max_entry, std::max(fij, fji));
+              recip = std::max(recip, std::abs(ai * fij - aj * fji) / std::min(ai, aj));
+            }
           }
         }
-      }
+    }
+    for (const std::vector<double>& rows : partial)
+      if (!rows.empty())
+        for (int i = 0; i < n; ++i) row_sums[size_t(i)] += rows[size_t(i)];
   } else {
-    // Sparse: from each stored entry; a pair stored only one way is seen from that side.
-#pragma omp parallel for schedule(dynamic, 16) reduction(max : recip)
+    // Sparse: entries and row sums row by row; reciprocity from each stored entry (a pair stored
+    // only one way is seen from that side).
+#pragma omp parallel for schedule(dynamic, 16) reduction(min : min_entry) reduction(max : max_entry, recip)
     for (int i = 0; i < n; ++i) {
       const double ai = mesh.patches[i].area;
+      double row = 0.0;
+      int stored = 0;
       F.for_each_in_row(i, [&](int j, double f) {
+        row += f;
         if (j == i) return;
+        ++stored;
+        min_entry = std::min(min_entry, f);
+        max_entry = std::max(max_entry, f);
         const double fji = F(j, i);
         if (j < i && fji != 0.0) return;  // counted from row j
         const double aj = mesh.patches[j].area;
         recip = std::max(recip, std::abs(ai * f - aj * fji) / std::min(ai, aj));
       });
+      if (stored < n - 1) min_entry = std::min(min_entry, 0.0);  // unstored entries are 0
+      row_sums[size_t(i)] = row;
     }
   }
   c.min_entry = n == 1 ? 0.0 : min_entry;
   c.max_entry = max_entry;
-  c.min_row_sum = min_row;
-  c.max_row_sum = max_row;
+  c.min_row_sum = *std::min_element(row_sums.begin(), row_sums.end());
+  c.max_row_sum = *std::max_element(row_sums.begin(), row_sums.end());
   c.reciprocity_error = recip;
   return c;
 }
