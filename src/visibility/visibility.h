@@ -273,8 +273,9 @@ class PointVisibility {
   enum class TileShadow { Unknown, None, Full };
   TileShadow tile_shadow(int patch);
   // The tile of a patch of the mesh (-1: none). tile_shadow() depends on the patch's tile
-  // alone, so a caller that visits patches in order asks once per run of one tile's patches
-  // (a tile's patches are neighbours on a face, so runs are a grid row long).
+  // alone, so a caller that visits patches in index order asks once per run of one tile's
+  // patches (a tile is a block of neighbours on a face: in a face's row-by-row patch order, a
+  // run is typically one row of the tile).
   int tile_of(int patch) const { return tile_of_patch_[size_t(patch)]; }
 
  private:
