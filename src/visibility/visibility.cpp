@@ -1197,7 +1197,7 @@ struct PointVisibility::Impl {
       const double len = d.norm();
       if (!(len > 0.0)) return k;  // x on a corner
       nearest = std::min(nearest, len);
-      sum += directions[size_t(i)] = d / len;
+      sum += directions[size_t(i)] = d * (1.0 / len);  // one division, not three (the margins below cover the rounding)
     }
     // An offset of the corners by up to margin_times_distance turns directions by at most that
     // over the distance to the nearest corner.
