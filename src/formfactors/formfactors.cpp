@@ -88,17 +88,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
     PointVisibility* from_point = vis && point_shafts ? &point_visibility[size_t(omp_get_thread_num())] : nullptr;
     if (from_point) from_point->set_receiver(Receiver{rule[0].point, pi.normal});
     else if (grouped) grouped->set_receiver(ri, pi.corner_count);
-    // from_point->tile_shadow, asked once per run of one tile's patches (it depends on the tile alone).
     using TileShadow = PointVisibility::TileShadow;
-    int run_tile = -2;
-    TileShadow run_shadow = TileShadow::Unknown;
-    auto tile_shadow = [&](int j) {
-      if (const int t = from_point->tile_of(j); t != run_tile) {
-        run_tile = t;
-        run_shadow = from_point->tile_shadow(j);
-      }
-      return run_shadow;
-    };
     // F_i,·: written in place into a dense double matrix (zero until now), else into a buffer.
     std::vector<double> row_buffer;
     double* row = F.dense_double_row(i);
@@ -203,7 +193,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
       }
       ++evaluated;
       double f = f0;
-      const TileShadow shadow = from_point && f0 > 0.0 ? tile_shadow(j) : TileShadow::Unknown;
+      const TileShadow shadow = from_point && f0 > 0.0 ? from_point->tile_shadow(j) : TileShadow::Unknown;
       if (shadow == TileShadow::None) {
         ++tested, ++culled;  // the patch's tile is unshadowed: f stands, without the patch's corners
       } else if (shadow == TileShadow::Full) {

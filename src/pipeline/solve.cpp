@@ -128,17 +128,7 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
       const Receiver receiver{x.position, x.normal, x.approach};
       PointVisibility* from_point = vis ? &point_visibility[size_t(omp_get_thread_num())] : nullptr;
       if (from_point) from_point->set_receiver(receiver);
-      // from_point->tile_shadow, asked once per run of one tile's patches (it depends on the tile alone).
       using TileShadow = PointVisibility::TileShadow;
-      int run_tile = -2;
-      TileShadow run_shadow = TileShadow::Unknown;
-      auto tile_shadow = [&](int j) {
-        if (const int t = from_point->tile_of(j); t != run_tile) {
-          run_tile = t;
-          run_shadow = from_point->tile_shadow(j);
-        }
-        return run_shadow;
-      };
       thread_local std::vector<Facing> facing;
       facing.resize(size_t(mesh.size()));
       facing_runs.classify_point(x.position, x.normal, facing.data());
@@ -155,7 +145,7 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
             (facing[size_t(j)] == Facing::Test && point_facing_away(mesh, x.position, x.normal, j, tol)))
           continue;
         ++evaluated;
-        const TileShadow shadow = f > 0.0 && from_point ? tile_shadow(j) : TileShadow::Unknown;
+        const TileShadow shadow = f > 0.0 && from_point ? from_point->tile_shadow(j) : TileShadow::Unknown;
         if (shadow == TileShadow::None) {
           ++tested, ++culled;  // the patch's tile is unshadowed: f stands, without the patch's corners
         } else if (shadow == TileShadow::Full) {

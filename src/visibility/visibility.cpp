@@ -1344,6 +1344,7 @@ PointVisibility::PointVisibility(PointVisibility&&) noexcept = default;
 PointVisibility& PointVisibility::operator=(PointVisibility&&) noexcept = default;
 
 void PointVisibility::set_receiver(const Receiver& x) {
+  last_tile_ = -2;  // tile_shadow asks afresh (not needed at the same point; cheap either way)
   // Culling and clipping depend on the point alone: a receiver at the same point (another
   // normal, as at a crease) keeps them.
   if (impl_->generation > 0 && x.point == impl_->x.point) {
@@ -1359,7 +1360,7 @@ void PointVisibility::set_receiver(const Receiver& x) {
   ++impl_->generation;
 }
 
-PointVisibility::TileShadow PointVisibility::tile_shadow(int patch) {
+PointVisibility::TileShadow PointVisibility::shadow_of_tile(int patch) {
   Impl& m = *impl_;
   const int t = m.grouped.tile_of(patch);
   if (m.vis->method() == VisibilityMethod::Rays || t < 0 || m.grouped.tile_corner_count(t) != 4)

@@ -270,18 +270,26 @@ class PointVisibility {
   // returns 0 (for unoccluded > 0) with `unshadowed` cleared. Either way a caller may skip
   // visible() and the patch's corners. Unknown says nothing (visible() decides). Full clips the
   // tile, as visible() would for any of its patches.
+  // Inline: the fill and the gather ask for every pair. The answer depends on the patch's tile
+  // alone, so it is kept for the last tile asked: patches visited in index order cost a lookup
+  // per run of one tile's patches (a tile is a block of neighbours on a face: in a face's
+  // row-by-row patch order, a run is typically one row of the tile).
   enum class TileShadow { Unknown, None, Full };
-  TileShadow tile_shadow(int patch);
-  // The tile of a patch of the mesh (-1: none). tile_shadow() depends on the patch's tile
-  // alone, so a caller that visits patches in index order asks once per run of one tile's
-  // patches (a tile is a block of neighbours on a face: in a face's row-by-row patch order, a
-  // run is typically one row of the tile).
-  int tile_of(int patch) const { return tile_of_patch_[size_t(patch)]; }
+  TileShadow tile_shadow(int patch) {
+    if (const int t = tile_of_patch_[size_t(patch)]; t != last_tile_) {
+      last_tile_ = t;
+      last_shadow_ = shadow_of_tile(patch);
+    }
+    return last_shadow_;
+  }
 
  private:
   struct Impl;
+  TileShadow shadow_of_tile(int patch);
   std::unique_ptr<Impl> impl_;
   const int* tile_of_patch_ = nullptr;  // the culler's, in impl_ (which moves with its owner)
+  int last_tile_ = -2;                  // tile_shadow's last tile (-2: none since set_receiver)
+  TileShadow last_shadow_ = TileShadow::Unknown;
 };
 
 // What the form-factor fill and the vertex gather use: the culler plus one of the two methods.
