@@ -447,6 +447,36 @@ TEST(VisibilityScenes, PointVisibilityPerTileEqualsClippingEachPatch) {
 // A receiver at the same point as the previous one with another normal (a gather point split at
 // a crease) reuses the point's culling and clipping: its visible factors are those of a
 // PointVisibility that starts afresh at that receiver, bit for bit.
+// tile_shadow keeps its last tile's answer; a new receiver point must forget it. Asked of one
+// patch from one point and then from another, it must answer as a fresh PointVisibility at the
+// second point does (the pairs where the two points' answers differ are what can fail).
+TEST(VisibilityScenes, PointVisibilityTileShadowIsForgottenAtANewPoint) {
+  const Scene scene = validation::bench_room_scene();
+  const PatchMesh mesh = subdivide(scene, {0.3, 0.0});
+  const Visibility vis(scene, VisibilityMethod::Exact);
+  std::vector<Receiver> points;
+  for (int i = 0; i < mesh.size(); i += 29) points.push_back(Receiver{mesh.patches[i].centroid, mesh.patches[i].normal});
+  ASSERT_GE(points.size(), 10u);
+  using TileShadow = PointVisibility::TileShadow;
+  PointVisibility reused(vis, mesh);
+  int compared = 0, changed = 0;
+  for (size_t r = 1; r < points.size(); ++r) {
+    PointVisibility fresh(vis, mesh);
+    fresh.set_receiver(points[r]);
+    for (int j = 0; j < mesh.size(); ++j) {
+      reused.set_receiver(points[r - 1]);
+      const TileShadow before = reused.tile_shadow(j);
+      reused.set_receiver(points[r]);
+      const TileShadow want = fresh.tile_shadow(j);
+      ASSERT_EQ(reused.tile_shadow(j), want) << "patch " << j << " receiver " << r;
+      changed += before != want;
+      ++compared;
+    }
+  }
+  EXPECT_GT(compared, 1000);
+  EXPECT_GT(changed, 50);
+}
+
 TEST(VisibilityScenes, PointVisibilityAtTheSamePointWithAnotherNormal) {
   const Scene scene = validation::bench_room_scene();
   const PatchMesh mesh = subdivide(scene, {0.3, 0.0});

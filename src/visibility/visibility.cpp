@@ -1344,7 +1344,7 @@ PointVisibility::PointVisibility(PointVisibility&&) noexcept = default;
 PointVisibility& PointVisibility::operator=(PointVisibility&&) noexcept = default;
 
 void PointVisibility::set_receiver(const Receiver& x) {
-  last_tile_ = -2;  // tile_shadow asks afresh (not needed at the same point; cheap either way)
+  last_tile_ = -2;  // tile_shadow's kept answer was for the last point
   // Culling and clipping depend on the point alone: a receiver at the same point (another
   // normal, as at a crease) keeps them.
   if (impl_->generation > 0 && x.point == impl_->x.point) {
@@ -1360,9 +1360,8 @@ void PointVisibility::set_receiver(const Receiver& x) {
   ++impl_->generation;
 }
 
-PointVisibility::TileShadow PointVisibility::shadow_of_tile(int patch) {
+PointVisibility::TileShadow PointVisibility::shadow_of_tile(int t) {
   Impl& m = *impl_;
-  const int t = m.grouped.tile_of(patch);
   if (m.vis->method() == VisibilityMethod::Rays || t < 0 || m.grouped.tile_corner_count(t) != 4)
     return TileShadow::Unknown;
   if (!m.receiver_set) m.grouped.set_receiver(&m.x.point, 1), m.receiver_set = true;

@@ -278,14 +278,14 @@ class PointVisibility {
   TileShadow tile_shadow(int patch) {
     if (const int t = tile_of_patch_[size_t(patch)]; t != last_tile_) {
       last_tile_ = t;
-      last_shadow_ = shadow_of_tile(patch);
+      last_shadow_ = shadow_of_tile(t);
     }
     return last_shadow_;
   }
 
  private:
   struct Impl;
-  TileShadow shadow_of_tile(int patch);
+  TileShadow shadow_of_tile(int tile);  // tile_shadow's answer, worked out (tile -1: none)
   std::unique_ptr<Impl> impl_;
   const int* tile_of_patch_ = nullptr;  // the culler's, in impl_ (which moves with its owner)
   int last_tile_ = -2;                  // tile_shadow's last tile (-2: none since set_receiver)
