@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "commands.h"
+#include "options.h"
 #include "io/atomic_file.h"
 #include "pipeline/memory.h"
 #include "util/error.h"
@@ -89,10 +90,9 @@ int run_bench(const BenchArgs& a) {
   opt.only = a.only;
   if (a.max_memory && !pm::parse_memory_size(*a.max_memory, opt.max_memory_bytes))
     pm::throw_bad_input("--max-memory: '" + *a.max_memory + "' is not a size (e.g. 2G, 512M)");
-  // Probe the CSV target before minutes of work (AtomicOutput checks the folder is writable).
-  if (!a.csv.empty()) {
-    const pm::AtomicOutput probe(a.csv);  // removed again at once; throws Error(Io)
-  }
+  // The CSV target is opened before minutes of work (an unwritable folder fails at once).
+  std::optional<pm::AtomicOutput> csv;
+  if (!a.csv.empty()) csv.emplace(a.csv);
   if (!a.json) print_header();
   opt.on_start = [](const std::string& label) { std::cerr << "bench: " << label << "...\n" << std::flush; };
   opt.on_row = [&a](const pv::BenchRow& r) {
@@ -102,8 +102,9 @@ int run_bench(const BenchArgs& a) {
     else print_row(r);
   };
   const std::vector<pv::BenchRow> rows = pv::run_bench(opt);
-  if (!a.csv.empty()) {
-    pv::write_bench_csv(a.csv, rows);
+  if (csv) {
+    pv::write_bench_csv(*csv, rows);
+    csv->commit();
     std::cerr << "bench: wrote " << a.csv << "\n";
   }
   return 0;
@@ -117,12 +118,14 @@ Command add_bench_command(CLI::App& app) {
       "bench", "Speed benchmark: generated cube and furnished rooms through the real pipeline (docs/performance.md)");
   cmd->add_flag("--quick", args->quick, "Smallest size of each scene only (a crash check, well under a minute)");
   cmd->add_option("--csv", args->csv, "Also write the rows to this CSV file (atomically)");
-  cmd->add_option("--threads", args->threads, "Threads (default: all cores)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--threads", args->threads, "Threads (default: all cores)")
+      ->check(options::integer_in(0, options::kMaxThreads));
   cmd->add_flag("--json", args->json, "One JSON object per row on stdout instead of the table");
   cmd->add_option("--max-memory", args->max_memory,
                   "Skip cases whose memory estimate exceeds this (e.g. 2G; default: MemAvailable)");
   cmd->add_option("--max-patches", args->max_patches, "Skip cases with more patches than this (0: no limit)")
-      ->check(CLI::NonNegativeNumber);
+      
+      ->check(options::integer_in(0, std::numeric_limits<int>::max()));
   cmd->add_option("--only", args->only,
                   "Run only the cases whose label contains this text (labels: \"cube n=32 solve\", "
                   "\"cube n=32 viewfactors\", \"room edge=0.112 m solve\", ...)");

@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "commands.h"
+#include "options.h"
 #include "io/atomic_file.h"
 #include "io/vtu.h"
 #include "pipeline/memory.h"
@@ -87,7 +88,7 @@ int run_solve(const SolveArgs& a) {
   if (a.max_memory && !pm::parse_memory_size(*a.max_memory, max_memory))
     pm::throw_bad_input("--max-memory: '" + *a.max_memory + "' is not a size (e.g. 512M, 2G, 1.5GiB)");
   const std::string output = a.output.empty() ? std::filesystem::path(a.scene).stem().string() + ".vtu" : a.output;
-  pm::AtomicOutput probe(output);  // fail on an unwritable path before the long work
+  pm::AtomicOutput out(output);  // fail on an unwritable path before the long work
 
   const pm::Scene scene = pm::load_scene(a.scene, load);
   if (!a.quiet)
@@ -131,7 +132,8 @@ int run_solve(const SolveArgs& a) {
 
   pm::SolveResult result = pm::solve_scene(scene, opt);
   const auto t0 = std::chrono::steady_clock::now();
-  pm::write_vtu(output, pm::result_grid(scene, result));
+  pm::write_vtu(out, pm::result_grid(scene, result));
+  out.commit();
   result.summary.stage_seconds.emplace_back("write", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
 
   if (!a.quiet) std::cerr << pm::summary_table(scene, result.summary) << "  output                " << output << "\n";
@@ -151,19 +153,28 @@ Command add_solve_command(CLI::App& app) {
   CLI::App* solve = app.add_subcommand("solve", "Solve a room mesh and write per-vertex results (.vtu)");
   solve->add_option("scene", s.scene, "Mesh (.obj+.mtl .off .ply .stl .om) or scene file (.json)")->required();
   solve->add_option("-o,--output", s.output, "Output .vtu (default: <scene name>.vtu)");
-  solve->add_option("--max-edge", s.max_edge, "Longest patch edge, metres (default: bounding diagonal / 16)");
-  solve->add_option("--max-area", s.max_area, "Largest patch area, m² (default: no limit)");
-  solve->add_option("--quadrature", s.quadrature, "Receiver rule: 1 = centroid, n = n×n Gauss points (default 1)");
+  solve->add_option("--max-edge", s.max_edge, "Longest patch edge, metres (default: bounding diagonal / 16)")
+      ->check(options::real_in(0, options::kInf));
+  solve->add_option("--max-area", s.max_area, "Largest patch area, m² (default: no limit)")
+      ->check(options::real_in(0, options::kInf));
+  solve->add_option("--quadrature", s.quadrature, "Receiver rule: 1 = centroid, n = n×n Gauss points (default 1)")
+      ->check(options::integer_in(1, 16));
   solve->add_option("--accuracy", s.accuracy,
                     "Relative accuracy of patch-to-patch factors: rule chosen per pair (overrides --quadrature "
-                    "for pairs nothing can block; default 0 = off)");
+                    "for pairs nothing can block; default 0 = off)")
+      ->check(options::real_in(0, 1, false, true));
   solve->add_option("--visibility", s.visibility, "auto | none | rays | exact (default auto)");
-  solve->add_option("--rays", s.rays, "Rays per receiver point and patch for --visibility rays (default 576 = 24²)");
-  solve->add_option("--seed", s.seed, "Ray sampling seed (default 1)");
-  solve->add_option("--tolerance", s.tolerance, "Solver relative residual (default 1e-8)");
-  solve->add_option("--max-iterations", s.max_iterations, "Solver sweep cap (default 100000)");
+  solve->add_option("--rays", s.rays, "Rays per receiver point and patch for --visibility rays (default 576 = 24²)")
+      ->check(options::integer_in(1, 1 << 24));
+  solve->add_option("--seed", s.seed, "Ray sampling seed (default 1)")
+      ->check(options::integer_in(0, std::numeric_limits<long long>::max()));
+  solve->add_option("--tolerance", s.tolerance, "Solver relative residual (default 1e-8)")
+      ->check(options::real_in(0, options::kInf, true));
+  solve->add_option("--max-iterations", s.max_iterations, "Solver sweep cap (default 100000)")
+      ->check(options::integer_in(1, std::numeric_limits<int>::max()));
   solve->add_option("--solver", s.solver, "auto | gauss-seidel | sor | cg | gmres | direct (default auto)");
-  solve->add_option("--threads", s.threads, "Threads (default: all cores)");
+  solve->add_option("--threads", s.threads, "Threads (default: all cores)")
+      ->check(options::integer_in(0, options::kMaxThreads));
   solve->add_option("--reflectance", s.reflectance, "Default reflectance for formats without materials: r or r,g,b");
   solve->add_option("--emission", s.emission, "Default emission (W/m²) for formats without materials: e or r,g,b");
   solve->add_option("--max-memory", s.max_memory, "Refuse to solve when the memory estimate exceeds this: 512M, 2G, ... (default: MemAvailable)");

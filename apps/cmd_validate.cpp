@@ -3,8 +3,10 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <optional>
 
 #include "commands.h"
+#include "io/atomic_file.h"
 #include "util/error.h"
 #include "validation/suite.h"
 
@@ -28,7 +30,21 @@ int run_validate(const ValidateArgs& a) {
   } catch (const nlohmann::json::exception& e) {
     pm::throw_bad_input(a.refs + ": " + e.what());
   }
-  if (!a.report.empty()) std::filesystem::create_directories(a.report);
+  // The report's three files are opened now (an unwritable folder fails before the run) and
+  // committed together at the end, so a failed report leaves the earlier one as it was.
+  struct Report {
+    explicit Report(const std::filesystem::path& dir)
+        : csv((dir / "validation.csv").string()), md((dir / "validation_table.md").string()),
+          png((dir / "error_vs_time.png").string()) {}
+    pm::AtomicOutput csv, md, png;
+  };
+  std::optional<Report> report;
+  if (!a.report.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(a.report, ec);
+    if (ec) pm::throw_io("cannot create the report folder '" + a.report + "': " + ec.message());
+    report.emplace(std::filesystem::path(a.report));
+  }
 
   std::cout << std::left << std::setw(46) << "scene" << std::setw(20) << "setting" << std::right << std::setw(8)
             << "patches" << std::setw(7) << "cases" << std::setw(13) << "max rel err" << std::setw(13) << "rms rel err"
@@ -43,14 +59,17 @@ int run_validate(const ValidateArgs& a) {
               << std::flush;
   };
   const auto rows = pv::run_validation(refs, opt);
-  if (!a.report.empty()) {
-    const std::string csv = (std::filesystem::path(a.report) / "validation.csv").string();
-    const std::string png = (std::filesystem::path(a.report) / "error_vs_time.png").string();
-    pv::write_validation_csv(csv, rows);
-    const std::string md = (std::filesystem::path(a.report) / "validation_table.md").string();
-    pv::write_validation_markdown(md, rows);
-    pv::write_error_vs_time_plot(csv, png, rows);
-    std::cerr << "wrote " << csv << ", " << md << " and " << png << "\n";
+  if (report) {
+    pv::write_validation_csv(report->csv, rows);
+    pv::write_validation_markdown(report->md, rows);
+    pv::write_error_vs_time_plot(report->png, report->csv.target(), rows);
+    report->csv.finish();
+    report->md.finish();
+    report->png.finish();
+    report->csv.commit();
+    report->md.commit();
+    report->png.commit();
+    std::cerr << "wrote " << report->csv.target() << ", " << report->md.target() << " and " << report->png.target() << "\n";
   }
   return 0;
 }

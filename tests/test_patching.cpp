@@ -1,9 +1,11 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <map>
 
 #include "patching/patching.h"
 #include "scene_builders.h"
+#include "util/error.h"
 
 using namespace photometria;
 
@@ -64,5 +66,71 @@ TEST(Patching, NormalsFollowTheFace) {
     const Vec3 n = polygon_normal(m.polygon(static_cast<int>(&p - m.patches.data())));
     EXPECT_TRUE(n.isApprox(p.normal, 1e-12));
     EXPECT_GT(p.normal.dot(Vec3(0.5, 0.5, 0.5) - p.centroid), 0.0);  // inward
+  }
+}
+
+// ----- counting without building ------------------------------------------------------------------
+
+namespace {
+
+// The unit cube's floor and ceiling split into triangles (a mesh of quads and triangles), with
+// an obstruction-only box (no patches) inside.
+Scene mixed_scene() {
+  Scene s = builders::unit_cube();
+  s.faces[0].vertices = {0, 1, 2};
+  s.faces.push_back({{0, 2, 3}, 0, 0, 6});
+  s.faces[1].vertices = {4, 7, 6};
+  s.faces.push_back({{4, 6, 5}, 0, 0, 7});
+  builders::add_box(s, {0.4, 0.4, 0.0}, {0.6, 0.6, 0.3});
+  for (size_t f = s.faces.size() - 6; f < s.faces.size(); ++f) s.faces[f].obstruction_only = true;
+  return s;
+}
+
+}  // namespace
+
+// count_patches must say exactly what subdivide() makes: patches, points, per-face grids.
+TEST(Patching, CountPatchesIsWhatSubdivideMakes) {
+  const Scene scenes[] = {builders::unit_cube(), mixed_scene()};
+  const PatchingOptions settings[] = {{0.0, 0.0}, {0.3, 0.0}, {0.07, 0.0}, {0.0, 0.01}, {0.25, 0.003}};
+  for (const Scene& scene : scenes)
+    for (const PatchingOptions& o : settings) {
+      const PatchMesh m = subdivide(scene, o);
+      const PatchGrid g = count_patches(scene, o);
+      EXPECT_EQ(g.patches, double(m.size())) << o.max_edge << " " << o.max_area;
+      EXPECT_EQ(g.points, double(m.points.size())) << o.max_edge << " " << o.max_area;
+      EXPECT_TRUE(g.fits_int());
+      double from_faces = 0;
+      for (const auto& nm : g.segments) from_faces += nm[0] * nm[1];
+      EXPECT_EQ(from_faces, g.patches);
+    }
+}
+
+// A typo in --max-edge is counted at once, without overflow, as far more than a mesh can index.
+TEST(Patching, HugeCountsAreCountedNotBuilt) {
+  const Scene cube = builders::unit_cube();
+  const PatchGrid g = count_patches(cube, {1e-6, 0.0});
+  EXPECT_EQ(g.patches, 6e12);
+  EXPECT_FALSE(g.fits_int());
+  EXPECT_GT(count_patches(cube, {1e-300, 0.0}).patches, 1e20);  // clamped segments, still finite
+  EXPECT_TRUE(std::isfinite(count_patches(cube, {1e-300, 0.0}).patches));
+  EXPECT_THROW(subdivide(cube, {1e-6, 0.0}), Error);
+}
+
+// The patches computed one at a time are the mesh's patches, corner for corner.
+TEST(Patching, ImplicitPatchesAreTheMeshPatches) {
+  const Scene scene = mixed_scene();
+  for (const PatchingOptions& o : {PatchingOptions{0.3, 0.0}, PatchingOptions{0.09, 0.0}, PatchingOptions{0.0, 0.004}}) {
+    const PatchMesh m = subdivide(scene, o);
+    const PatchGrid g = count_patches(scene, o);
+    const ImplicitPatches implicit(scene, g);
+    ASSERT_EQ(implicit.size(), m.size());
+    for (int i = 0; i < m.size(); ++i) {
+      const ImplicitPatch p = implicit[i];
+      ASSERT_EQ(p.face, m.patches[i].face) << i;
+      ASSERT_EQ(p.corner_count, m.patches[i].corner_count) << i;
+      Vec3 c[4];
+      m.polygon(i, c);
+      for (int k = 0; k < p.corner_count; ++k) EXPECT_LT((p.corners[k] - c[k]).norm(), 1e-14) << i << " " << k;
+    }
   }
 }

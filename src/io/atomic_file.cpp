@@ -1,6 +1,8 @@
 #include "io/atomic_file.h"
 
+#include <fcntl.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -9,6 +11,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <mutex>
 
 #include "util/error.h"
@@ -73,7 +76,37 @@ void unregister_temporary(int slot) {
   g_state[slot].store(0);
 }
 
+// Why a write failed, from errno right after it: the write errors by name, anything else (errno
+// overwritten or never set by the stream) as the likely cause.
+std::string write_failure_reason() {
+  const int e = errno;
+  switch (e) {
+    case ENOSPC: case EFBIG: case EIO: case EDQUOT: case EROFS: case EPIPE: case EBADF: return std::strerror(e);
+    default: return "write failed (disk full?)";
+  }
+}
+
 }  // namespace
+
+void sync_file(const std::string& path, const std::string& name) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw_io("cannot write '" + name + "': " + std::strerror(errno));
+  const int rc = ::fsync(fd);
+  const int e = errno;
+  ::close(fd);
+  if (rc != 0 && e != EINVAL) throw_io("cannot write '" + name + "': " + std::strerror(e));  // EINVAL: cannot sync (a pipe)
+}
+
+void finish_standard_output() {
+  errno = 0;
+  std::cout.flush();
+  const bool stream_ok = static_cast<bool>(std::cout);
+  if (std::fflush(stdout) != 0 || !stream_ok || std::ferror(stdout))
+    throw_io("cannot write standard output: " + write_failure_reason());
+  struct stat st {};
+  if (::fstat(STDOUT_FILENO, &st) == 0 && S_ISREG(st.st_mode) && ::fsync(STDOUT_FILENO) != 0 && errno != EINVAL)
+    throw_io(std::string("cannot write standard output: ") + std::strerror(errno));
+}
 
 int live_temporary_files() {
   int n = 0;
@@ -106,7 +139,33 @@ AtomicOutput::~AtomicOutput() {
   unregister_temporary(slot_);
 }
 
+std::ofstream& AtomicOutput::stream() {
+  if (!stream_opened_) {
+    stream_opened_ = true;
+    errno = 0;
+    stream_.open(temp_, std::ios::binary | std::ios::trunc);
+    if (!stream_) throw_io("cannot write '" + target_ + "': " + std::strerror(errno ? errno : EIO));
+  }
+  return stream_;
+}
+
+void AtomicOutput::check_stream() {
+  if (stream_opened_ && !stream_) throw_io("cannot write '" + target_ + "': " + write_failure_reason());
+}
+
+void AtomicOutput::finish() {
+  if (stream_opened_ && stream_.is_open()) {
+    errno = 0;
+    if (stream_) stream_.flush();
+    check_stream();
+    stream_.close();  // the last buffered bytes go out here
+    check_stream();
+  }
+  sync_file(temp_, target_);
+}
+
 void AtomicOutput::commit() {
+  finish();
   if (std::rename(temp_.c_str(), target_.c_str()) != 0)
     throw_io("cannot rename '" + temp_ + "' to '" + target_ + "': " + std::strerror(errno));
   committed_ = true;

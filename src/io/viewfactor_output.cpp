@@ -50,15 +50,13 @@ bool view_factor_format_from_name(const std::string& name, ViewFactorFormat& out
   return true;
 }
 
-SparseWriteStats write_view_factors(const AtomicOutput& atomic, ViewFactorFormat format,
+SparseWriteStats write_view_factors(AtomicOutput& atomic, ViewFactorFormat format,
                                     const std::vector<std::string>& names, const std::vector<double>& areas,
                                     const ViewFactorRows& F, double threshold, const View3dOutput& view3d) {
   SparseWriteStats st;
   const int n = static_cast<int>(F.rows());
-  const std::string& path = atomic.target();
   {
-    std::ofstream out(atomic.temp_path(), std::ios::binary | std::ios::trunc);
-    if (!out) throw_io("cannot write '" + path + "'");
+    std::ofstream& out = atomic.stream();
     switch (format) {
       case ViewFactorFormat::Csv: {
         std::string line = "name,area";
@@ -69,6 +67,7 @@ SparseWriteStats write_view_factors(const AtomicOutput& atomic, ViewFactorFormat
           line.append(1, ',').append(g17(areas[i]));
           for (int j = 0; j < n; ++j) line.append(1, ',').append(g17(F(i, j)));
           out << line << "\n";
+          if (i % 256 == 255) atomic.check_stream();  // a full disk stops the run here, not at the end
         }
         break;
       }
@@ -90,6 +89,7 @@ SparseWriteStats write_view_factors(const AtomicOutput& atomic, ViewFactorFormat
           }
           st.total_dropped += dropped;
           if (dropped > st.max_dropped_row_sum) { st.max_dropped_row_sum = dropped; st.worst_row = i; }
+          if (i % 256 == 255) atomic.check_stream();
         }
         break;
       }
@@ -124,6 +124,7 @@ SparseWriteStats write_view_factors(const AtomicOutput& atomic, ViewFactorFormat
           line.clear();
           for (int j = 0; j < n; ++j) line.append(j ? " " : "").append(field("%.6f", F(i, j)));
           out << line << "\n";
+          if (i % 256 == 255) atomic.check_stream();
         }
         line.clear();
         const bool have_emit = view3d.emissivities.size() == static_cast<size_t>(n);
@@ -133,18 +134,15 @@ SparseWriteStats write_view_factors(const AtomicOutput& atomic, ViewFactorFormat
         break;
       }
     }
-    out.flush();
-    if (!out) throw_io("cannot write '" + path + "' (disk full?)");
+    atomic.check_stream();  // the caller's commit() flushes, closes and syncs
   }
   return st;
 }
 
-void write_point_factors(const AtomicOutput& atomic, const std::vector<std::string>& point_ids,
+void write_point_factors(AtomicOutput& atomic, const std::vector<std::string>& point_ids,
                          const std::vector<std::string>& surface_names, const ViewFactorRows& P) {
-  const std::string& path = atomic.target();
   {
-    std::ofstream out(atomic.temp_path(), std::ios::binary | std::ios::trunc);
-    if (!out) throw_io("cannot write '" + path + "'");
+    std::ofstream& out = atomic.stream();
     std::string line = "point";
     for (const std::string& s : surface_names) line.append(1, ',').append(csv_cell(s));
     out << line << "\n";
@@ -152,9 +150,9 @@ void write_point_factors(const AtomicOutput& atomic, const std::vector<std::stri
       line = csv_cell(point_ids[static_cast<size_t>(i)]);
       for (int j = 0; j < static_cast<int>(P.cols()); ++j) line.append(1, ',').append(g17(P(i, j)));
       out << line << "\n";
+      if (i % 256 == 255) atomic.check_stream();
     }
-    out.flush();
-    if (!out) throw_io("cannot write '" + path + "' (disk full?)");
+    atomic.check_stream();
   }
 }
 

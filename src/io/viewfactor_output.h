@@ -55,7 +55,7 @@ struct View3dOutput {
 // Writes F into `out`'s temporary file (not committed). Throws Error(Io) naming out.target()
 // when it cannot be written. `threshold` only applies to Sparse; `view3d` only to View3d.
 // Returns the drop statistics (all zero for the dense forms).
-SparseWriteStats write_view_factors(const AtomicOutput& out, ViewFactorFormat format,
+SparseWriteStats write_view_factors(AtomicOutput& out, ViewFactorFormat format,
                                     const std::vector<std::string>& names, const std::vector<double>& areas,
                                     const ViewFactorRows& F, double threshold = 0.0,
                                     const View3dOutput& view3d = {});
@@ -63,7 +63,7 @@ SparseWriteStats write_view_factors(const AtomicOutput& out, ViewFactorFormat fo
 // Point-to-surface factors (P points × G surfaces) as CSV: header "point,<name_1>,...,<name_G>",
 // then "<id>,F_1,...,F_G" per point, 17 significant digits, into `out`'s temporary file (not
 // committed). Throws Error(Io).
-void write_point_factors(const AtomicOutput& out, const std::vector<std::string>& point_ids,
+void write_point_factors(AtomicOutput& out, const std::vector<std::string>& point_ids,
                          const std::vector<std::string>& surface_names, const ViewFactorRows& P);
 
 // "csv", "sparse", "binary", "view3d"; false when unknown.

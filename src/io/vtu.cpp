@@ -1,7 +1,11 @@
 #include "io/vtu.h"
 
+#include <vtkAlgorithm.h>
+#include <vtkCallbackCommand.h>
 #include <vtkCellArray.h>
 #include <vtkCellData.h>
+#include <vtkErrorCode.h>
+#include <vtkExecutive.h>
 #include <vtkDoubleArray.h>
 #include <vtkIdList.h>
 #include <vtkNew.h>
@@ -45,10 +49,50 @@ VtuArray from_vtk(vtkDataArray* arr) {
   return a;
 }
 
+// Catches what a VTK algorithm and its executive report through vtkErrorMacro / vtkWarningMacro.
+// With an observer on ErrorEvent, VTK hands the message to it instead of printing a multi-line
+// block on stderr (vtkOutputWindowDisplayErrorText), so a failure becomes our one-line error.
+class VtkErrorCatcher {
+ public:
+  explicit VtkErrorCatcher(vtkAlgorithm* algorithm) {
+    callback_->SetClientData(this);
+    callback_->SetCallback(&VtkErrorCatcher::record);
+    for (vtkObject* o : {static_cast<vtkObject*>(algorithm), static_cast<vtkObject*>(algorithm->GetExecutive())}) {
+      o->AddObserver(vtkCommand::ErrorEvent, callback_);
+      o->AddObserver(vtkCommand::WarningEvent, callback_);
+    }
+  }
+  bool failed() const { return errors_ > 0; }
+  // The first error's own text, on one line: "ERROR: In file, line N\nclass (0x..): text" -> "text".
+  std::string first_error() const { return first_; }
+
+ private:
+  static void record(vtkObject*, unsigned long event, void* client, void* call_data) {
+    auto* self = static_cast<VtkErrorCatcher*>(client);
+    if (event != vtkCommand::ErrorEvent) return;  // warnings: silenced, the outcome is checked anyway
+    if (self->errors_++ > 0 || !call_data) return;
+    std::string text = static_cast<const char*>(call_data);
+    const size_t object_end = text.find("): ");
+    if (object_end != std::string::npos) text = text.substr(object_end + 3);
+    const size_t line_end = text.find('\n');
+    if (line_end != std::string::npos) text.resize(line_end);
+    self->first_ = text;
+  }
+  vtkNew<vtkCallbackCommand> callback_;
+  int errors_ = 0;
+  std::string first_;
+};
+
 }  // namespace
 
 void write_vtu(const std::string& path, const VtuGrid& grid) {
   AtomicOutput out(path);
+  write_vtu(out, grid);
+  out.commit();
+}
+
+void write_vtu(AtomicOutput& out, const VtuGrid& grid) {
+  const std::string& path = out.target();
   vtkNew<vtkPoints> points;
   points->SetDataTypeToDouble();
   points->SetNumberOfPoints(static_cast<vtkIdType>(grid.points.size()));
@@ -69,17 +113,27 @@ void write_vtu(const std::string& path, const VtuGrid& grid) {
   writer->SetInputData(ug);
   writer->SetDataModeToBinary();
   writer->SetCompressorTypeToZLib();
-  if (writer->Write() != 1) throw_io("cannot write '" + path + "': VTK writer failed");
-  out.commit();
+  const VtkErrorCatcher errors(writer);
+  const int written = writer->Write();
+  // VTK's writers keep the failing call's errno as their error code (vtkErrorCode.h: codes below
+  // UserError are system errors), and return 1 from Write() even then: both are checked.
+  const unsigned long code = writer->GetErrorCode();
+  if (code == vtkErrorCode::OutOfDiskSpaceError) throw_io("cannot write '" + path + "': no space left on the device (or over the file-size limit)");
+  if (code != vtkErrorCode::NoError) throw_io("cannot write '" + path + "': " + vtkErrorCode::GetStringFromErrorCode(code));
+  if (written != 1 || errors.failed())
+    throw_io("cannot write '" + path + "': VTK: " + (errors.first_error().empty() ? "the writer failed" : errors.first_error()));
 }
 
 VtuGrid read_vtu(const std::string& path) {
   if (!std::filesystem::exists(path)) throw_io("cannot open '" + path + "'");
   vtkNew<vtkXMLUnstructuredGridReader> reader;
   reader->SetFileName(path.c_str());
+  const VtkErrorCatcher errors(reader);
   reader->Update();
   vtkUnstructuredGrid* ug = reader->GetOutput();
-  if (!ug || reader->GetErrorCode() != 0) throw_io("cannot read '" + path + "' as a VTK unstructured grid");
+  if (!ug || reader->GetErrorCode() != 0 || errors.failed())
+    throw_io("cannot read '" + path + "' as a VTK unstructured grid" +
+             (errors.first_error().empty() ? std::string() : ": " + errors.first_error()));
   VtuGrid grid;
   for (vtkIdType i = 0; i < ug->GetNumberOfPoints(); ++i) {
     double x[3];

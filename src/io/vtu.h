@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "geometry/polygon.h"
+#include "io/atomic_file.h"
 
 namespace photometria {
 
@@ -27,8 +28,13 @@ struct VtuGrid {
   std::vector<VtuArray> cell_arrays;
 };
 
-// Writes `grid` to `path` (temporary file + rename). Throws Error(Io) naming the path.
+// Writes `grid` to `path` (temporary file + rename). Throws Error(Io) naming the path, also
+// when VTK reports an error (an observer catches it: nothing of VTK's is printed) or the bytes
+// did not reach the disk; the earlier file at `path` is then untouched.
 void write_vtu(const std::string& path, const VtuGrid& grid);
+// The same into an output opened earlier (to fail on an unwritable path before a long run);
+// the caller commits `out`.
+void write_vtu(AtomicOutput& out, const VtuGrid& grid);
 
 // Reads a .vtu back (all point and cell arrays). Throws Error(Io) if it cannot be read.
 VtuGrid read_vtu(const std::string& path);

@@ -65,6 +65,43 @@ struct PatchMesh {
   }
 };
 
+// The patch mesh of `scene`. Throws Error(BadInput) when it would have more patches or points
+// than an int can index (count_patches() tells beforehand).
 PatchMesh subdivide(const Scene& scene, const PatchingOptions& options);
+
+// What subdivide() would make, counted without making it: memory and time grow with the input
+// faces and edges only, so that a request for 10^12 patches (a typo in --max-edge) is counted,
+// and refused, in a moment instead of exhausting the machine.
+struct PatchGrid {
+  // Per scene face: the grid subdivide() cuts it into, {nu, nv} segments for a quad (nu along
+  // its first edge, nu·nv patches), {n, n} for a triangle (n² patches); {0, 0} for a face that
+  // only obstructs (no patches).
+  std::vector<std::array<double, 2>> segments;
+  double patches = 0.0;  // Σ patches, in patch order (face by face); a double: it may exceed any int
+  double points = 0.0;   // shared patch vertices (PatchMesh::points)
+  bool fits_int() const;  // both counts small enough for subdivide()
+};
+PatchGrid count_patches(const Scene& scene, const PatchingOptions& options);
+
+// Patch `index` (0 ≤ index < grid.patches, in subdivide()'s order) of the mesh subdivide() would
+// make, from its face's parametrisation alone: the same corners as the mesh's up to rounding.
+// For sampling a mesh that is never built (pipeline/memory.h). Needs grid.fits_int().
+struct ImplicitPatch {
+  int face = 0;          // index into Scene::faces
+  int corner_count = 0;  // 3 or 4
+  Vec3 corners[4];       // counter-clockwise from the front, metres
+};
+class ImplicitPatches {
+ public:
+  ImplicitPatches(const Scene& scene, const PatchGrid& grid);
+  long long size() const { return patches_; }
+  ImplicitPatch operator[](long long index) const;
+
+ private:
+  const Scene& scene_;
+  const PatchGrid& grid_;
+  std::vector<long long> face_end_;  // patches of faces 0..f, for the binary search
+  long long patches_ = 0;
+};
 
 }  // namespace photometria

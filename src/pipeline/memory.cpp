@@ -1,6 +1,7 @@
 #include "pipeline/memory.h"
 
 #include <algorithm>
+#include <climits>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -33,19 +34,38 @@ double per_patch_bytes() {
   return patch + channels + solver + cell + 4 * point + vtu_cell;
 }
 
-}  // namespace
+// A patch as the facing test sees it.
+struct PatchShape {
+  Vec3 corners[4];
+  int corner_count = 0;
+  Vec3 normal;    // unit front normal
+  Vec3 centroid;  // area centroid
+};
 
-MemoryEstimate estimate_memory(const PatchMesh& mesh, uint64_t seed) {
+// formfactors.h facing_away, on shapes: true when neither patch is in front of the other.
+bool shapes_face_away(const PatchShape& a, const PatchShape& b, double tol) {
+  double above_a = -1.0, front_of_b = -1.0;
+  for (int k = 0; k < b.corner_count; ++k) above_a = std::max(above_a, a.normal.dot(b.corners[k] - a.centroid));
+  if (above_a <= tol) return true;
+  for (int k = 0; k < a.corner_count; ++k) front_of_b = std::max(front_of_b, b.normal.dot(a.corners[k] - b.centroid));
+  return front_of_b <= tol;
+}
+
+// The estimate for n patches, `shape_of(i)` giving patch i: every ordered pair tested when
+// there are at most kSamples, else kSamples random pairs (the same sequence for the same n and
+// seed, whichever way the patches are given).
+template <class ShapeOf>
+MemoryEstimate estimate_from(long long n, double tol, uint64_t seed, const ShapeOf& shape_of) {
   MemoryEstimate e;
-  const long long n = mesh.size();
   e.patches = static_cast<int>(n);
   e.pairs_total = n * (n - 1);
   if (n >= 2) {
-    const double tol = plane_tolerance(mesh);
     if (e.pairs_total <= kSamples) {
+      std::vector<PatchShape> shapes;
+      for (int i = 0; i < n; ++i) shapes.push_back(shape_of(i));
       for (int i = 0; i < n; ++i)
         for (int j = 0; j < n; ++j)
-          if (i != j && !facing_away(mesh, i, j, tol)) ++e.nonzero_pairs;
+          if (i != j && !shapes_face_away(shapes[size_t(i)], shapes[size_t(j)], tol)) ++e.nonzero_pairs;
     } else {
       std::mt19937_64 rng(seed);
       std::uniform_int_distribution<int> pick(0, static_cast<int>(n) - 1);
@@ -54,7 +74,7 @@ MemoryEstimate estimate_memory(const PatchMesh& mesh, uint64_t seed) {
         const int i = pick(rng);
         int j = pick(rng);
         while (j == i) j = pick(rng);
-        if (!facing_away(mesh, i, j, tol)) ++hits;
+        if (!shapes_face_away(shape_of(i), shape_of(j), tol)) ++hits;
       }
       e.nonzero_pairs = std::llround(double(hits) / double(kSamples) * double(e.pairs_total));
     }
@@ -64,6 +84,53 @@ MemoryEstimate estimate_memory(const PatchMesh& mesh, uint64_t seed) {
   e.dense_bytes = double(n) * double(n) * sizeof(double) + rest;
   e.sparse_bytes = double(e.nonzero_pairs) * (sizeof(double) + sizeof(int32_t)) + double(n + 1) * sizeof(int64_t) + rest;
   return e;
+}
+
+}  // namespace
+
+MemoryEstimate estimate_memory(const PatchMesh& mesh, uint64_t seed) {
+  return estimate_from(mesh.size(), plane_tolerance(mesh), seed, [&](int i) {
+    const Patch& p = mesh.patches[size_t(i)];
+    PatchShape s;
+    s.corner_count = p.corner_count;
+    mesh.polygon(i, s.corners);
+    s.normal = p.normal;
+    s.centroid = p.centroid;
+    return s;
+  });
+}
+
+MemoryEstimate estimate_memory(const Scene& scene, const PatchGrid& grid, uint64_t seed) {
+  if (!grid.fits_int()) {
+    // Beyond what a mesh can index: every figure from the counts alone (no pair is sampled;
+    // dense and sparse are both far above any machine's memory).
+    MemoryEstimate e;
+    e.patches = INT_MAX;
+    e.per_patch_bytes = per_patch_bytes();
+    const double n = grid.patches, rest = e.per_patch_bytes * n;
+    e.pairs_total = LLONG_MAX;
+    e.nonzero_pairs = LLONG_MAX;
+    e.dense_bytes = n * n * sizeof(double) + rest;
+    e.sparse_bytes = e.dense_bytes;
+    return e;
+  }
+  const ImplicitPatches patches(scene, grid);
+  double extent = 0.0;  // plane_tolerance's: the mesh's points are the scene's vertices and points between them
+  for (const Vec3& v : scene.vertices) extent = std::max(extent, v.lpNorm<Eigen::Infinity>());
+  const double tol = 1e-12 * std::max(extent, 1e-300);
+  std::vector<Vec3> face_normal(scene.faces.size());
+  for (size_t f = 0; f < scene.faces.size(); ++f)
+    if (!scene.faces[f].obstruction_only) face_normal[f] = polygon_normal(scene.face_polygon(static_cast<int>(f)));
+  return estimate_from(patches.size(), tol, seed, [&](int i) {
+    const ImplicitPatch p = patches[i];
+    PatchShape s;
+    s.corner_count = p.corner_count;
+    std::copy(p.corners, p.corners + p.corner_count, s.corners);
+    s.normal = face_normal[size_t(p.face)];
+    Polygon poly(p.corners, p.corners + p.corner_count);
+    s.centroid = polygon_centroid(poly);
+    return s;
+  });
 }
 
 StorageChoice choose_storage(MatrixLayout layout, MatrixPrecision precision, double n, double nonzeros,
@@ -126,6 +193,13 @@ std::string format_bytes(double bytes) {
   const size_t dot0 = s.find(".0 ");
   if (dot0 != std::string::npos) s.erase(dot0, 2);
   return s;
+}
+
+std::string format_patch_count(double patches) {
+  if (patches < 1e15) return format_count(std::llround(patches));
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g", patches);
+  return text;
 }
 
 std::string format_count(long long n) {

@@ -30,6 +30,15 @@ struct MemoryEstimate {
 
 // Estimates both storages for `mesh`; `seed` makes the pair sampling repeatable.
 MemoryEstimate estimate_memory(const PatchMesh& mesh, uint64_t seed = 1);
+// The same estimate before patching, from the counts of count_patches(scene, options) and the
+// patches' shapes computed one at a time (patching.h ImplicitPatches): nothing is allocated that
+// grows with the patch count. Equal to the estimate of the mesh subdivide() makes, up to the
+// rounding of patch corners. Beyond what a mesh can index (!grid.fits_int()) nothing is
+// sampled: patches = INT_MAX, pairs = LLONG_MAX, and dense_bytes = sparse_bytes from the count.
+MemoryEstimate estimate_memory(const Scene& scene, const PatchGrid& grid, uint64_t seed = 1);
+
+// A patch count for messages: "14,000", or "1.2e+12" beyond what a long long holds exactly.
+std::string format_patch_count(double patches);
 
 // The form-factor storage a run uses, chosen before the fill (the solve and `viewfactors` both).
 struct StorageChoice {

@@ -193,20 +193,21 @@ EnergyBalance energy_balance(const Eigen::VectorXd& row_sums, const ChannelMatri
   return e;
 }
 
-// Estimates the memory of the solve, picks the matrix storage from it (memory.h choose_storage)
-// and refuses a run that cannot fit.
-StorageChoice check_memory(const PatchMesh& mesh, const SolveOptions& opt, SolveSummary& s) {
-  s.memory = estimate_memory(mesh, opt.seed);
-  const double n = mesh.size();
-  const StorageChoice c = choose_storage(opt.matrix_layout, opt.matrix_precision, n, double(s.memory.nonzero_pairs),
-                                         s.memory.per_patch_bytes * n, opt.max_memory_bytes);
+// Picks the matrix storage from the memory estimate of `patches` patches (memory.h
+// choose_storage) and refuses a run that cannot fit. Called twice: before patching, from the
+// counts (so that a typo in --max-edge is refused before anything grows with the patch count),
+// and after, from the mesh.
+StorageChoice check_memory(const MemoryEstimate& estimate, double patches, const SolveOptions& opt, SolveSummary& s) {
+  s.memory = estimate;
+  const StorageChoice c = choose_storage(opt.matrix_layout, opt.matrix_precision, patches, double(s.memory.nonzero_pairs),
+                                         s.memory.per_patch_bytes * patches, opt.max_memory_bytes);
   s.matrix_storage = c.storage;
   s.matrix_storage_reason = c.reason;
   s.estimated_bytes = c.estimated_bytes;
   s.memory_limit_bytes = c.limit_bytes;
   s.memory_limit_source = c.limit_source;
   if (c.fits) return c;
-  throw_bad_input("needs " + format_bytes(c.estimated_bytes) + " for " + format_count(s.patches) + " patches (" +
+  throw_bad_input("needs " + format_bytes(c.estimated_bytes) + " for " + format_patch_count(patches) + " patches (" +
                   c.storage + " form factors) but " + c.limit_description() + "; raise --max-edge" +
                   (c.precision == MatrixPrecision::Double ? " or try --matrix-precision float" : ""));
 }
@@ -231,6 +232,10 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
     throw_bad_input(scene.source + ": nothing to solve: no face emits light and there are no lights "
                                    "(set Ke in the .mtl, --emission, or \"lights\" in a scene file)");
 
+  {
+    const PatchGrid grid = count_patches(scene, opt.patching);
+    check_memory(estimate_memory(scene, grid, opt.seed), grid.patches, opt, s);
+  }
   r.mesh = subdivide(scene, opt.patching);
   s.faces = static_cast<int>(scene.faces.size());
   s.patches = r.mesh.size();
@@ -277,7 +282,7 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
   fill.progress = progress("form factors");
   s.quadrature = opt.quadrature;
   s.accuracy = opt.accuracy;
-  const StorageChoice storage = check_memory(r.mesh, opt, s);
+  const StorageChoice storage = check_memory(estimate_memory(r.mesh, opt.seed), r.mesh.size(), opt, s);
   fill.layout = storage.layout;
   fill.precision = storage.precision;
   const FormFactors F = fill_form_factors(r.mesh, fill, s.fill);

@@ -388,15 +388,18 @@ nlohmann::ordered_json bench_json(const BenchRow& r) {
 
 void write_bench_csv(const std::string& path, const std::vector<BenchRow>& rows) {
   AtomicOutput out(path);
+  write_bench_csv(out, rows);
+  out.commit();
+}
+
+void write_bench_csv(AtomicOutput& out, const std::vector<BenchRow>& rows) {
   {
-    std::ofstream f(out.temp_path());
+    std::ofstream& f = out.stream();
     const std::vector<std::string> columns = bench_columns();
     for (size_t k = 0; k < columns.size(); ++k) f << (k ? "," : "") << columns[k];
     f << '\n';
     for (const BenchRow& r : rows) f << bench_csv_line(r) << '\n';
-    if (!f) throw_io("cannot write '" + path + "'");
   }
-  out.commit();
-}
+  }
 
 }  // namespace photometria::validation

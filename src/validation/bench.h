@@ -24,6 +24,8 @@
 #include <string>
 #include <vector>
 
+#include "io/atomic_file.h"
+
 #include "patching/patching.h"
 #include "scene/scene.h"
 
@@ -116,7 +118,9 @@ std::vector<std::string> bench_columns();
 std::string bench_csv_line(const BenchRow& row);
 // The row as one JSON object, keys = the column names in their order (NaN fields are null).
 nlohmann::ordered_json bench_json(const BenchRow& row);
-// Writes the header and the rows atomically (io/atomic_file.h); throws Error(Io).
+// Writes the header and the rows atomically (io/atomic_file.h); throws Error(Io) naming the file
+// when its bytes do not reach the disk. The first form fills `out` without committing it.
+void write_bench_csv(AtomicOutput& out, const std::vector<BenchRow>& rows);
 void write_bench_csv(const std::string& path, const std::vector<BenchRow>& rows);
 
 }  // namespace photometria::validation

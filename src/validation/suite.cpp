@@ -1,5 +1,6 @@
 #include "validation/suite.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -7,6 +8,8 @@
 #include <iomanip>
 #include <map>
 #include <sstream>
+
+#include <sys/wait.h>
 
 #include "formfactors/formfactors.h"
 #include "formfactors/pair_integration.h"
@@ -448,6 +451,17 @@ class Suite {
   }
 };
 
+// True when the file at `path` ends with a PNG IEND chunk: length 0, "IEND", CRC AE 42 60 82.
+bool png_is_complete(const std::string& path) {
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  if (!in || in.tellg() < 20) return false;
+  in.seekg(-12, std::ios::end);
+  char tail[12];
+  if (!in.read(tail, sizeof tail)) return false;
+  static const unsigned char iend[12] = {0, 0, 0, 0, 'I', 'E', 'N', 'D', 0xAE, 0x42, 0x60, 0x82};
+  return std::equal(tail, tail + 12, iend, [](char a, unsigned char b) { return static_cast<unsigned char>(a) == b; });
+}
+
 }  // namespace
 
 std::vector<ValidationRow> run_validation(const nlohmann::json& refs, const ValidationOptions& options) {
@@ -456,21 +470,23 @@ std::vector<ValidationRow> run_validation(const nlohmann::json& refs, const Vali
 
 void write_validation_csv(const std::string& path, const std::vector<ValidationRow>& rows) {
   AtomicOutput out(path);
+  write_validation_csv(out, rows);
+  out.commit();
+}
+
+void write_validation_csv(AtomicOutput& out, const std::vector<ValidationRow>& rows) {
   {
-    std::ofstream f(out.temp_path());
+    std::ofstream& f = out.stream();
     f << "scene,setting,patches,quadrature,cases,max_rel_error,rms_rel_error,seconds\n" << std::setprecision(6);
     for (const auto& r : rows)
       f << '"' << r.scene << "\",\"" << r.setting << "\"," << r.patches << ',' << r.quadrature << ',' << r.cases << ','
         << r.max_rel_error << ',' << r.rms_rel_error << ',' << r.seconds << '\n';
-    if (!f) throw_io("cannot write '" + path + "'");
   }
-  out.commit();
 }
 
-void write_validation_markdown(const std::string& path, const std::vector<ValidationRow>& rows) {
-  AtomicOutput out(path);
+void write_validation_markdown(AtomicOutput& out, const std::vector<ValidationRow>& rows) {
   {
-    std::ofstream f(out.temp_path());
+    std::ofstream& f = out.stream();
     f << "| scene | setting | patches | cases | max rel. error | RMS rel. error | seconds |\n"
       << "|---|---|---:|---:|---:|---:|---:|\n";
     for (const auto& r : rows) {
@@ -478,18 +494,23 @@ void write_validation_markdown(const std::string& path, const std::vector<Valida
         << std::setprecision(2) << r.max_rel_error << " | " << r.rms_rel_error << " | " << std::defaultfloat
         << std::setprecision(3) << r.seconds << " |\n";
     }
-    if (!f) throw_io("cannot write '" + path + "'");
   }
-  out.commit();
 }
 
 void write_error_vs_time_plot(const std::string& csv_path, const std::string& png_path,
                               const std::vector<ValidationRow>& rows) {
+  AtomicOutput png(png_path);
+  write_error_vs_time_plot(png, csv_path, rows);
+  png.commit();
+}
+
+void write_error_vs_time_plot(AtomicOutput& png, const std::string& title, const std::vector<ValidationRow>& rows) {
+  const std::string& png_path = png.target();
   // One data block per scene (gnuplot "index"), errors floored at 1e-17 so exact zeros plot.
   AtomicOutput data(png_path + ".dat");
   std::vector<std::string> scenes;
   {
-    std::ofstream f(data.temp_path());
+    std::ofstream& f = data.stream();
     std::map<std::string, std::vector<const ValidationRow*>> by_scene;
     for (const auto& r : rows) {
       if (!by_scene.count(r.scene)) scenes.push_back(r.scene);
@@ -501,25 +522,36 @@ void write_error_vs_time_plot(const std::string& csv_path, const std::string& pn
       f << "\n\n";
     }
   }
-  AtomicOutput png(png_path);
-  std::ostringstream script;
-  script << "set terminal pngcairo size 1100,700 font ',10'\n"
-         << "set output '" << png.temp_path() << "'\n"
-         << "set logscale xy\nset format y '10^{%L}'\nset format x '10^{%L}'\n"
-         << "set xlabel 'wall time (s)'\nset ylabel 'max relative error'\n"
-         << "set title 'Photometria validation: error against run time (" << csv_path << ")'\n"
-         << "set key outside right\nset grid\n"
-         << "plot ";
+  data.finish();  // gnuplot reads it next: every byte must be there
+  AtomicOutput script(png_path + ".gp");
+  script.stream() << "set terminal pngcairo size 1100,700 font ',10'\n"
+                  << "set output '" << png.temp_path() << "'\n"
+                  << "set logscale xy\nset format y '10^{%L}'\nset format x '10^{%L}'\n"
+                  << "set xlabel 'wall time (s)'\nset ylabel 'max relative error'\n"
+                  << "set title 'Photometria validation: error against run time (" << title << ")'\n"
+                  << "set key outside right\nset grid\n"
+                  << "plot ";
   for (size_t k = 0; k < scenes.size(); ++k)
-    script << (k ? ", " : "") << "'" << data.temp_path() << "' index " << k << " with linespoints lw 2 title '"
-           << scenes[k] << "'";
-  script << "\n";
-  FILE* gp = popen("gnuplot 2>&1", "w");
-  if (!gp) throw_io("cannot run gnuplot to write '" + png_path + "' (install gnuplot-nox)");
-  fputs(script.str().c_str(), gp);
+    script.stream() << (k ? ", " : "") << "'" << data.temp_path() << "' index " << k
+                    << " with linespoints lw 2 title '" << scenes[k] << "'";
+  script.stream() << "\nunset output\n";  // closes the PNG: cairo writes its last bytes here
+  script.finish();
+  // gnuplot's messages are read back (never passed to our stdout) so that a failure is one line.
+  FILE* gp = popen(("gnuplot '" + script.temp_path() + "' 2>&1").c_str(), "r");
+  if (!gp) throw_io("cannot write '" + png_path + "': cannot run gnuplot (install gnuplot-nox)");
+  std::string messages;
+  char buf[512];
+  while (std::fgets(buf, sizeof buf, gp)) messages += buf;
   const int status = pclose(gp);
-  if (status != 0) throw_io("gnuplot failed to write '" + png_path + "' (install gnuplot-nox)");
-  png.commit();
+  const std::string first_message = messages.substr(0, messages.find('\n'));
+  if (status != 0)
+    throw_io("cannot write '" + png_path + "': gnuplot failed" +
+             (WIFEXITED(status) && WEXITSTATUS(status) == 127 ? std::string(" (install gnuplot-nox)")
+                                                              : first_message.empty() ? "" : ": " + first_message));
+  // gnuplot does not report a short write (it exits 0 on a full disk): a PNG is complete only
+  // when it ends with its IEND chunk (PNG specification, ISO/IEC 15948, sec. 11.2.5).
+  if (!png_is_complete(png.temp_path()))
+    throw_io("cannot write '" + png_path + "': the picture gnuplot wrote is incomplete (disk full?)");
 }
 
 }  // namespace photometria::validation

@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "io/atomic_file.h"
+
 namespace photometria::validation {
 
 struct ValidationRow {
@@ -34,15 +36,23 @@ struct ValidationOptions {
 // reference case it needs is missing.
 std::vector<ValidationRow> run_validation(const nlohmann::json& refs, const ValidationOptions& options);
 
-// Writes rows as CSV (header: scene,setting,patches,quadrature,cases,max_rel_error,
-// rms_rel_error,seconds), atomically.
+// The writers fill an AtomicOutput (io/atomic_file.h) without committing it, so that a command
+// can open every output of a report before the long run and commit them only when all were
+// written (a failed report leaves none of its files changed). The overloads taking a path open,
+// write and commit one file. All throw Error(Io) naming the file when its bytes do not reach
+// the disk.
+
+// Rows as CSV (header: scene,setting,patches,quadrature,cases,max_rel_error,rms_rel_error,seconds).
+void write_validation_csv(AtomicOutput& out, const std::vector<ValidationRow>& rows);
 void write_validation_csv(const std::string& path, const std::vector<ValidationRow>& rows);
 
-// Writes rows as a Markdown table (for docs/validation.md), atomically.
-void write_validation_markdown(const std::string& path, const std::vector<ValidationRow>& rows);
+// Rows as a Markdown table (for docs/validation.md).
+void write_validation_markdown(AtomicOutput& out, const std::vector<ValidationRow>& rows);
 
 // Log-log plot of max relative error against seconds, one line per scene, through gnuplot
-// (pngcairo). Throws Error(Io) if gnuplot is missing or fails.
+// (pngcairo); `title` names the data in the plot's title. Throws Error(Io) if gnuplot is
+// missing, fails, or leaves an incomplete picture.
+void write_error_vs_time_plot(AtomicOutput& png, const std::string& title, const std::vector<ValidationRow>& rows);
 void write_error_vs_time_plot(const std::string& csv_path, const std::string& png_path,
                               const std::vector<ValidationRow>& rows);
 

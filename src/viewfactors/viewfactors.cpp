@@ -8,6 +8,7 @@
 #include <cmath>
 #include <fstream>
 #include <iomanip>
+#include <limits>
 #include <sstream>
 
 #include "kernels/lambert.h"
@@ -19,12 +20,15 @@ namespace photometria {
 
 namespace {
 
-// The memory estimate of viewfactors.h (ViewFactorMemory), the storage chosen from it
-// (pipeline/memory.h choose_storage, as the solve does) and the refusal.
-StorageChoice check_memory(const Scene& scene, const PatchMesh& mesh, const ViewFactorOptions& opt, ViewFactorMemory& m) {
-  m.patches = estimate_memory(mesh, opt.seed);
-  m.surfaces = make_aggregation(scene, mesh, opt.level).size();
-  const double n = mesh.size(), g = m.surfaces;
+// The memory estimate of viewfactors.h (ViewFactorMemory) for `patches` patches and `surfaces`
+// output surfaces, the storage chosen from it (pipeline/memory.h choose_storage, as the solve
+// does) and the refusal. Called before patching, from the counts (surfaces: a lower bound, 0
+// unless --by patch), and after, from the mesh.
+StorageChoice check_memory(const MemoryEstimate& estimate, double patches, double surfaces, const ViewFactorOptions& opt,
+                           ViewFactorMemory& m) {
+  m.patches = estimate;
+  m.surfaces = static_cast<int>(std::min(surfaces, double(std::numeric_limits<int>::max())));
+  const double n = patches, g = surfaces;
   m.output_bytes = 8.0 * g * g * (opt.enforcement ? 5.0 : 1.0) + 8.0 * double(std::max(opt.points, 0)) * g;
   const StorageChoice c = choose_storage(opt.matrix_layout, opt.matrix_precision, n, double(m.patches.nonzero_pairs),
                                          m.patches.per_patch_bytes * n + m.output_bytes, opt.max_memory_bytes);
@@ -36,8 +40,8 @@ StorageChoice check_memory(const Scene& scene, const PatchMesh& mesh, const View
   m.limit_source = c.limit_source;
   if (c.fits) return c;
   throw_bad_input("view factors need an estimated " + format_bytes(m.estimated_bytes) + " for " +
-                  format_count(mesh.size()) + " patches (" + m.storage + " form factors, " +
-                  format_count(m.surfaces) + " output surfaces) but " + c.limit_description() +
+                  format_patch_count(n) + " patches (" + m.storage + " form factors, " +
+                  format_patch_count(g) + " output surfaces) but " + c.limit_description() +
                   "; use a coarser mesh (--max-edge)" +
                   (c.precision == MatrixPrecision::Double ? std::string(", --matrix-precision float") : "") +
                   (opt.level != AggregateLevel::Group ? std::string(", --by group") : "") + " or raise --max-memory");
@@ -48,9 +52,15 @@ StorageChoice check_memory(const Scene& scene, const PatchMesh& mesh, const View
 PatchViewFactors compute_view_factors(const Scene& scene, const ViewFactorOptions& opt) {
   if (opt.threads > 0) omp_set_num_threads(opt.threads);
   PatchViewFactors r;
+  {
+    const PatchGrid grid = count_patches(scene, opt.patching);
+    if (grid.patches == 0) throw_bad_input(scene.source + ": no surface to compute view factors for");
+    check_memory(estimate_memory(scene, grid, opt.seed), grid.patches,
+                 opt.level == AggregateLevel::Patch ? grid.patches : 0.0, opt, r.memory);
+  }
   r.mesh = subdivide(scene, opt.patching);
-  if (r.mesh.size() == 0) throw_bad_input(scene.source + ": no surface to compute view factors for");
-  const StorageChoice storage = check_memory(scene, r.mesh, opt, r.memory);
+  const StorageChoice storage = check_memory(estimate_memory(r.mesh, opt.seed), r.mesh.size(),
+                                             make_aggregation(scene, r.mesh, opt.level).size(), opt, r.memory);
   // Visibility choice: the same rule as the solve (pipeline/solve.cpp, VisibilityMode::Auto).
   std::string reason;
   switch (opt.visibility) {
