@@ -80,7 +80,7 @@ const Receiver up{Vec3::Zero(), Vec3::UnitZ()};
 
 }  // namespace
 
-// A unit square 1e6 sizes away: F ≈ 1.6e-13. Issue: relative error <= 1e-10 (acos loses all).
+// A unit square 1e6 sizes away: F ≈ 1.6e-13. Required: relative error <= 1e-10 (acos loses all).
 // The centred evaluations (iwanicki, stark-vertex, stark-image: every term of the order of F,
 // docs/kernels.md "Accuracy") keep full precision; Lambert's plain edge sum keeps ~10 digits.
 TEST(Stability, TinySolidAngle) {
