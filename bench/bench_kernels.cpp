@@ -25,8 +25,8 @@ std::vector<pm::Receiver> receivers(bool tilted) {
 const pm::Vec3 kQuad[4] = {{0.2, 0.2, 1.0}, {0.2, 0.8, 1.0}, {0.8, 0.8, 1.0}, {0.8, 0.2, 1.0}};  // faces down
 const pm::Vec3 kTriangle[3] = {{0.2, 0.2, 1.0}, {0.5, 0.8, 1.0}, {0.8, 0.2, 1.0}};              // faces down
 
-// The plain textbook form for comparison only: seed 000 eq. (1) with acos of normalized vectors,
-// no clipping, no one-sided test (valid for these unclipped configurations).
+// The plain textbook form for comparison only: Heitz 2017 eq. (1) (kernels/lambert.h) with acos of
+// normalized vectors, no clipping, no one-sided test (valid for these unclipped configurations).
 double plain_acos_lambert(const pm::Receiver& r, const pm::Vec3* v, int n) {
   double sum = 0.0;
   for (int i = 0; i < n; ++i) {
@@ -131,8 +131,8 @@ BENCHMARK_CAPTURE(run, stark_vertex_triangle, pm::Kernel::StarkVertex, false, 3)
 BENCHMARK_CAPTURE(run, stark_image_quad, pm::Kernel::StarkImage, false, 4);
 BENCHMARK_CAPTURE(run, stark_image_triangle, pm::Kernel::StarkImage, false, 3);
 
-// The approximations (seed 003), for their cost next to the exact kernels' (their error is in
-// docs/kernels.md).
+// The approximations (Lawlor 2007, kernels/approximations.h), for their cost next to the exact
+// kernels' (their error is in docs/kernels.md).
 BENCHMARK_CAPTURE(run, point_source_quad, pm::Kernel::PointSource, false, 4);
 BENCHMARK_CAPTURE(run, point_source_triangle, pm::Kernel::PointSource, false, 3);
 BENCHMARK_CAPTURE(run, tampieri_quad, pm::Kernel::Tampieri, false, 4);

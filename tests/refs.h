@@ -1,5 +1,5 @@
-// Access to the analytic reference values (tests/data/refs_public.json, a copy of
-// shared/refs/public.json): decimal strings parsed as long double.
+// Access to the analytic reference values (tests/data/refs_public.json: Howell's closed forms in
+// 100-digit arithmetic, checked by an independent method): decimal strings parsed as long double.
 #pragma once
 
 #include <fstream>

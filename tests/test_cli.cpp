@@ -206,7 +206,8 @@ TEST(Cli, AccuracyOptionReachesTheExactCubeSolution) {
 }
 
 // Analytic lights from a scene file: a normalized distant light gives exactly its intensity as
-// irradiance on a surface facing it (seed 001), so a lone floor of ρ = 0.5 has B = 500.
+// irradiance on a surface facing it (UsdLux note, kernels/distant.h), so a lone floor of ρ = 0.5
+// has B = 500.
 TEST(Cli, SceneFileLightsGiveDirectIrradiance) {
   const fs::path dir = scratch();
   std::ofstream(dir / "floor.off") << "OFF\n4 1 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n";

@@ -1,4 +1,4 @@
-// Bad input through the command line (issue 6): every fault gets one clear line on stderr, the
+// Bad input through the command line: every fault gets one clear line on stderr, the
 // documented exit code, and no output file (nor temporary file) is left behind; the cases that
 // can safely go on give a counted warning in the --json summary and a finite result.
 // (Missing file, malformed OBJ number, ρ >= 1, unwritable output and nothing to solve are in

@@ -1,4 +1,5 @@
-// End-to-end: `photometria formfactor` on the DESIGN.md example and the references.
+// End-to-end: `photometria formfactor` on the point-query example of docs/usage.md (its square
+// listed in the other vertex order) and the analytic references.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
@@ -54,7 +55,7 @@ TEST(CliFormFactor, DesignExampleOneLinePerQuery) {
   const auto v = lines(r.out);
   ASSERT_EQ(v.size(), 3u);
   EXPECT_EQ(v[0]["id"], "q1");
-  // q1: the DESIGN.md square [-1,1]² at z = 1 without a front_normal emits towards the receiver
+  // q1: the example's square [-1,1]² at z = 1 without a front_normal emits towards the receiver
   // in either vertex order: 4 × Howell B-3 with X = Y = 1... for the half-width 1 at c = 1:
   // 4 × B-3(X = 1, Y = 1) = 4 × 0.138531605994893 = 0.554126423979572. q2: (r/d)² = 1/9.
   EXPECT_NEAR(v[0]["form_factor"].get<double>(), 4 * 0.13853160599489299678, 1e-15);

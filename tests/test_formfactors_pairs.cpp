@@ -1,4 +1,5 @@
-// Per-pair adaptive patch-to-patch factors against Howell's closed forms (shared/refs).
+// Per-pair adaptive patch-to-patch factors against Howell's closed forms
+// (tests/data/refs_public.json).
 #include <gtest/gtest.h>
 
 #include "formfactors/pair_integration.h"

@@ -9,7 +9,7 @@
 using namespace photometria;
 
 namespace {
-// Tolerance of the issue: 1e-12 relative, or 1e-15 absolute for values below 1e-3.
+// Required tolerance: 1e-12 relative, or 1e-15 absolute for values below 1e-3.
 void expect_matches_reference(double got, long double want, const std::string& id) {
   SCOPED_TRACE(id);
   ASSERT_TRUE(std::isfinite(got));

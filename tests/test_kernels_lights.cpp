@@ -1,6 +1,7 @@
 // Sphere and distant lights (kernels/sphere.h, distant.h, lights.h): every sphere_light and
 // distant_light reference, the regimes above / crossing / below the horizon, θmax = 0, tiny,
-// π/2 and > π/2, the UsdLux normalization (seed 001) and the scene-file "lights" reader.
+// π/2 and > π/2, the UsdLux normalization (OpenUSD note "Normalizing Distant Lights – In
+// Depth", see kernels/distant.h) and the scene-file "lights" reader.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -85,7 +86,8 @@ TEST(SphericalCap, CrossingTheHorizonKeepsItsDigits) {
 
 TEST(SphericalCap, RegimesAndLimits) {
   const Receiver up{Vec3::Zero(), Vec3::UnitZ()};
-  // Wholly above: r²/d² cos α (seed 000 eq. 16); wholly below: 0; a 1e6 offset changes nothing.
+  // Wholly above: r²/d² cos α (Heitz 2017 eq. 16, see kernels/sphere.h); wholly below: 0;
+  // a 1e6 offset changes nothing.
   EXPECT_DOUBLE_EQ(sphere_form_factor(up, Vec3(1.8, 0, 2.4), 1.0), 0.8 / 9.0);
   EXPECT_EQ(sphere_form_factor(up, Vec3(1.8, 0, -2.4), 1.0), 0.0);
   const Vec3 off(1e6, -1e6, 1e6);

@@ -324,7 +324,8 @@ TEST(Approximations, PointSourceErrorFallsWithTheSquareOfDistance) {
     const double approx = point_form_factor(Kernel::PointSource, r, square(z));
     EXPECT_NEAR(approx, 1.0 / (M_PI * z * z), 1e-15);
     const double rel = approx / exact(z) - 1.0;
-    EXPECT_GT(rel, 0.0);  // the point source over-estimates (seed 003: 1/z² vs 1/(z²+1))
+    // The point source over-estimates (Lawlor 2007, see approximations.h: 1/z² vs 1/(z²+1)).
+    EXPECT_GT(rel, 0.0);
     if (prev > 0) {
       EXPECT_NEAR(prev / rel, 4.0, 0.3) << z;
     }
@@ -352,7 +353,7 @@ TEST(Approximations, TampieriAndCrossProductErrorsAreWhereSeed003SaysTheyAre) {
     const Polygon sq = {{-0.5, 0.5, z}, {0.5, 0.5, z}, {0.5, -0.5, z}, {-0.5, -0.5, z}};
     const double exact = point_form_factor(Kernel::Iwanicki, r, sq);
     const double rel = point_form_factor(Kernel::CrossProduct, r, sq) / exact - 1.0;
-    EXPECT_LT(rel, 0.0) << z;              // darker up close (seed 003)
+    EXPECT_LT(rel, 0.0) << z;              // darker up close (Lawlor 2007)
     EXPECT_LT(std::abs(rel), prev_rel) << z;  // and better with distance
     prev_rel = std::abs(rel);
   }

@@ -1,6 +1,7 @@
-// The numerical-stability cases of issue 3, each with an independent expected value: a closed
-// form (Howell B-3 / B-4) in long double, Lambert's formula in long double on the same double
-// inputs (80-bit, clipped in long double), or shared/refs. Every exact kernel is checked.
+// The numerical-stability cases (docs/kernels.md "Stability table"), each with an independent
+// expected value: a closed form (Howell B-3 / B-4) in long double, Lambert's formula in long double
+// on the same double inputs (80-bit, clipped in long double), or tests/data/refs_public.json. Every
+// exact kernel is checked.
 #include <gtest/gtest.h>
 
 #include "kernels/lambert_batch.h"
@@ -33,8 +34,9 @@ LD howell_b4(LD a, LD b, LD c) {
   return (std::atan(1 / Y) - Y / r * std::atan(1 / r)) / (2 * M_PIl);
 }
 
-// Lambert (seed 002 eq. 3) in long double after clipping to the receiver's half-space; the receiver
-// must see the polygon's front and not lie in its plane.
+// Lambert (M. M. Stark, "Vertex-Based Formulations of Irradiance from Polygonal Sources", Utah
+// UUCS-00-012, 2000, eq. 3) in long double after clipping to the receiver's half-space; the
+// receiver must see the polygon's front and not lie in its plane.
 LD lambert_ld(const Vec3& p, const Vec3& normal, const Polygon& poly) {
   const LVec N = normal.cast<LD>();
   std::vector<LVec> a, c;
@@ -78,7 +80,7 @@ const Receiver up{Vec3::Zero(), Vec3::UnitZ()};
 
 }  // namespace
 
-// A unit square 1e6 sizes away: F ≈ 1.6e-13. Issue: relative error <= 1e-10 (acos loses all).
+// A unit square 1e6 sizes away: F ≈ 1.6e-13. Required: relative error <= 1e-10 (acos loses all).
 // The centred evaluations (iwanicki, stark-vertex, stark-image: every term of the order of F,
 // docs/kernels.md "Accuracy") keep full precision; Lambert's plain edge sum keeps ~10 digits.
 TEST(Stability, TinySolidAngle) {

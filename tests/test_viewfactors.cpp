@@ -108,7 +108,7 @@ void check_cube(int n) {
     }
     worst_row = std::max(worst_row, std::abs(r.F.row_sum(i) - 1.0));
   }
-  // The bar is 1e-6 relative and row sums within 1e-6; every pair here is a pair of
+  // The accuracy target is 1e-6 relative and row sums within 1e-6; every pair here is a pair of
   // aligned rectangles, computed in closed form (formfactors/aligned_rectangles.h), so far tighter.
   EXPECT_LE(worst_rel, 1e-12) << "n = " << n;
   EXPECT_LE(worst_abs_small, 1e-15) << "n = " << n;

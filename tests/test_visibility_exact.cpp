@@ -27,7 +27,7 @@ double exact(const Polygon& source, const std::vector<Polygon>& occluders, const
 
 }  // namespace
 
-// The example: a square source above the receiver, a smaller parallel square blocker
+// Example: a square source above the receiver, a smaller parallel square blocker
 // halfway: visible = source minus the blocker's shadow on the source plane (scaled by 2).
 TEST(VisibilityExact, CentredParallelBlocker) {
   const Polygon source = rect_poly(-1, 1, -1, 1, 2);

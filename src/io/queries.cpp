@@ -82,7 +82,7 @@ PointQuery parse_one(const json& j, size_t index, const std::string& file) {
     if (!p.is_array() || p.size() < 3) fail(where, "'polygon' must be an array of at least 3 vertices, got " + p.dump());
     for (size_t k = 0; k < p.size(); ++k) q.polygon.push_back(read_vec3(p[k], "polygon[" + std::to_string(k) + "]", where));
     // Which side emits: the optional front_normal, else the side the receiver is on, so that
-    // either vertex order gives the same F (shared/refs/README.md "Conventions").
+    // either vertex order gives the same F (the convention of tests/data/refs_public.json).
     const Vec3 winding = newell_vector(q.polygon);
     const Vec3 front = j.contains("front_normal") ? read_unit(j["front_normal"], "front_normal", where)
                                                   : Vec3(q.point - polygon_centroid(q.polygon));

@@ -1,4 +1,4 @@
-// Point queries for `photometria formfactor` (DESIGN.md "Point queries"):
+// Point queries for `photometria formfactor` (docs/usage.md `photometria formfactor`):
 //   {"queries": [
 //     {"id": "q1", "point": [0,0,0], "normal": [0,0,1], "polygon": [[-1,-1,1], [1,-1,1], ...]},
 //     {"id": "q2", "point": [0,0,0], "normal": [0,0,1], "sphere": {"center": [0,0,3], "radius": 1}},
@@ -10,9 +10,10 @@
 // direction need not be unit length (they are normalized); ids must be unique strings.
 // Polygon side: with an optional "front_normal" the polygon emits on that side only (0 from its
 // back) in either vertex order; without it, it emits towards the receiver, so either vertex
-// order gives the same F (shared/refs/README.md). The stored polygon is reordered to be
+// order gives the same F (the convention of the analytic references, tests/data/refs_public.json).
+// The stored polygon is reordered to be
 // counter-clockwise seen from its emitting side. Scene faces, unlike queries, take their front
-// from the winding (DESIGN.md "Physics conventions").
+// from the winding (docs/theory.md "Units and conventions").
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -36,7 +37,7 @@ struct PointQuery {
   Vec3 direction = Vec3::UnitZ();  // Kind::Distant: unit, toward the light
   double angle_deg = 0.0;          // Kind::Distant: angular diameter in [0, 360] degrees
   std::optional<double> intensity; // sphere: exitance (W/m²); distant: radiance or normalized
-  bool normalize = false;          // Kind::Distant: UsdLux normalization (seed 001)
+  bool normalize = false;          // Kind::Distant: UsdLux normalization (kernels/distant.h)
 };
 
 // Validates the document. Errors (photometria::Error, BadInput) name `file`, the query index and

@@ -37,7 +37,7 @@ double point_source_form_factor(const Receiver& r, const Vec3* v, int n) {
   const double area = polygon_area(scratch);
   const double cos_r = std::max(0.0, r.normal.dot(c) / d);
   const double cos_s = std::max(0.0, -front.dot(c) / d);
-  return area * cos_r * cos_s / (M_PI * d2);  // seed 003, inverse-square law
+  return area * cos_r * cos_s / (M_PI * d2);  // Lawlor 2007 (approximations.h), inverse-square law
 }
 
 double tampieri_form_factor(const Receiver& r, const Vec3* v, int n) {
@@ -49,7 +49,7 @@ double tampieri_form_factor(const Receiver& r, const Vec3* v, int n) {
     const Vec3 rp = (-scratch[(i + 1) % n]).normalized();  // R_p, the next vertex
     const Vec3 cross = ri.cross(rp);
     if (cross.norm() == 0.0) continue;
-    phi += std::acos(std::clamp(ri.dot(rp), -1.0, 1.0)) * cross.normalized();  // seed 003 code
+    phi += std::acos(std::clamp(ri.dot(rp), -1.0, 1.0)) * cross.normalized();  // Lawlor 2007's code
   }
   return -r.normal.dot(phi) / (2.0 * M_PI);
 }
@@ -59,7 +59,7 @@ double cross_product_form_factor(const Receiver& r, const Vec3* v, int n) {
   if (!front_relative(r, v, n, scratch, front)) return 0.0;
   Vec3 phi = Vec3::Zero();
   for (int i = 0; i < n; ++i)
-    phi += (-scratch[i]).normalized().cross((-scratch[(i + 1) % n]).normalized());  // seed 003
+    phi += (-scratch[i]).normalized().cross((-scratch[(i + 1) % n]).normalized());  // Lawlor 2007
   return -r.normal.dot(phi) / (2.0 * M_PI);
 }
 

@@ -35,10 +35,10 @@ double distant_form_factor(const Receiver& receiver, const Vec3& direction, doub
 }
 
 double distant_size_factor(double angle_deg) {
-  if (!(angle_deg > 0.0)) return 1.0;  // seed 001: sizeFactor(0) = 1
+  if (!(angle_deg > 0.0)) return 1.0;  // UsdLux note (distant.h): sizeFactor(0) = 1
   double s, c;
   half_angle_sincos(angle_deg, s, c);
-  return c >= 0.0 ? M_PI * s * s : M_PI * (2.0 - s * s);  // seed 001, both branches
+  return c >= 0.0 ? M_PI * s * s : M_PI * (2.0 - s * s);  // UsdLux note, both branches
 }
 
 double distant_irradiance(const Receiver& receiver, const Vec3& direction, double angle_deg,

@@ -23,7 +23,7 @@ double atan_ratio_minus_one(double t) {
   return s;
 }
 
-// Σ_i (Ω_i / |a_i × a_{i+1}|) (a_i × a_{i+1})·N (seed 004, final formula; the direct form is
+// Σ_i (Ω_i / |a_i × a_{i+1}|) (a_i × a_{i+1})·N (Iwanicki, final formula; the direct form is
 // edge_angle_sum() of visible_polygon.h), rearranged around c = a_0 with Σ e_i = 0 (see
 // iwanicki.h). Requires small angles (every |r_i| <= |c|/16), so that a_i·a_{i+1} > 0 and
 // t_i = tan Ω_i < 0.2.

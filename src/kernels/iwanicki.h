@@ -1,11 +1,13 @@
-// Iwanicki's form of the point-to-polygon form factor (seed 004, "Putting it all together",
-// from Stokes' theorem, eqs. 2, 4 and 9):
+// Iwanicki's form of the point-to-polygon form factor (M. Iwanicki, "Deriving the analytical
+// formula for a diffuse response from a polygonal light source", Activision technical note;
+// section "Putting it all together", from Stokes' theorem, eqs. 2, 4 and 9):
 //
-//   F = (1/2π) Σ_i (Ω_i / sin Ω_i) (p̂_i × p̂_{i+1})·n          (seed 004, final formula)
+//   F = (1/2π) Σ_i (Ω_i / sin Ω_i) (p̂_i × p̂_{i+1})·n          (Iwanicki, final formula)
 //
 // with p̂_i the unit directions from the receiver to the vertices and Ω_i = ∠(p̂_i, p̂_{i+1}).
 // With unnormalized a_i = v_i − p the term is w_i (a_i × a_{i+1})·n, w_i = Ω_i / |a_i × a_{i+1}|,
-// a weight that stays bounded (→ 1/(a_i·a_{i+1})) for short edges (DESIGN.md "Numerics").
+// a weight that stays bounded (→ 1/(a_i·a_{i+1})) for short edges (the numerics rules of
+// docs/theory.md "Units and conventions").
 //
 // Evaluation (the project's default kernel, see docs/kernels.md): for a polygon that is small
 // against its distance (every vertex within |c|/16 of vertex 0, c = v_0 − p) the sum is

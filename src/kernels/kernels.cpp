@@ -8,13 +8,13 @@ namespace photometria {
 
 const std::vector<KernelInfo>& polygon_kernels() {
   static const std::vector<KernelInfo> list = {
-      {Kernel::Iwanicki, "iwanicki", true, "seed 004 final formula (Omega/sin Omega), centred evaluation"},
-      {Kernel::Lambert, "lambert", true, "seed 000 eq. (1), seed 002 eq. (3)"},
-      {Kernel::StarkVertex, "stark-vertex", true, "seed 002 eqs. (12)-(13)"},
-      {Kernel::StarkImage, "stark-image", true, "seed 002 eqs. (8)-(10), homogeneous form eqs. (44)-(46), Fig. 11"},
-      {Kernel::PointSource, "point-source", false, "seed 003 inverse-square point source"},
-      {Kernel::Tampieri, "tampieri", false, "seed 003 Hottel-Sarofim / Tampieri vector form"},
-      {Kernel::CrossProduct, "cross-product", false, "seed 003 cross-product approximation"},
+      {Kernel::Iwanicki, "iwanicki", true, "Iwanicki, final formula (Omega/sin Omega), centred evaluation"},
+      {Kernel::Lambert, "lambert", true, "Heitz 2017 eq. (1), Stark 2000 eq. (3)"},
+      {Kernel::StarkVertex, "stark-vertex", true, "Stark 2000 eqs. (12)-(13)"},
+      {Kernel::StarkImage, "stark-image", true, "Stark 2000 eqs. (8)-(10), homogeneous form eqs. (44)-(46), Fig. 11"},
+      {Kernel::PointSource, "point-source", false, "Lawlor 2007 inverse-square point source"},
+      {Kernel::Tampieri, "tampieri", false, "Lawlor 2007 Hottel-Sarofim / Tampieri vector form"},
+      {Kernel::CrossProduct, "cross-product", false, "Lawlor 2007 cross-product approximation"},
   };
   return list;
 }

@@ -1,13 +1,20 @@
 // Every point-to-polygon form-factor formulation behind one interface.
 //
 //   name            exact  source (docs/kernels.md has the theory and the stability table)
-//   iwanicki        yes    seed 004 Ω/sin Ω form, centred evaluation        — the DEFAULT
-//   lambert         yes    seed 000 eq. (1) / seed 002 eq. (3), atan2
-//   stark-vertex    yes    seed 002 eqs. (12)–(13)
-//   stark-image     yes    seed 002 eqs. (8)–(10) in homogeneous form (44)–(46), Fig. 10–11
-//   point-source    no     seed 003 inverse-square law
-//   tampieri        no     seed 003 Hottel–Sarofim / Tampieri vector form (acos, unclipped)
-//   cross-product   no     seed 003 cross-product approximation for distant receivers
+//   iwanicki        yes    Iwanicki Ω/sin Ω form, centred evaluation        — the DEFAULT
+//   lambert         yes    Heitz 2017 eq. (1) / Stark 2000 eq. (3), atan2
+//   stark-vertex    yes    Stark 2000 eqs. (12)–(13)
+//   stark-image     yes    Stark 2000 eqs. (8)–(10) in homogeneous form (44)–(46), Fig. 10–11
+//   point-source    no     Lawlor 2007 inverse-square law
+//   tampieri        no     Lawlor 2007 Hottel–Sarofim / Tampieri vector form (acos, unclipped)
+//   cross-product   no     Lawlor 2007 cross-product approximation for distant receivers
+//
+// Sources: M. Iwanicki, "Deriving the analytical formula for a diffuse response from a polygonal
+// light source" (Activision, technical note); E. Heitz, "Geometric Derivation of the Irradiance
+// of Polygonal Lights" (Unity Technologies, 2017); M. M. Stark, "Vertex-Based Formulations of
+// Irradiance from Polygonal Sources" (University of Utah, UUCS-00-012, 2000); O. Lawlor,
+// "Radiosity Units & Computation" (lecture notes, University of Alaska Fairbanks, 2007). Full
+// entries in docs/theory.md "References".
 //
 // Spheres and distant lights have their own kernels (sphere.h, distant.h), not listed here.
 // The default is the most accurate formulation: iwanicki agrees with the others to ~1e-15 and
@@ -29,7 +36,7 @@ struct KernelInfo {
   Kernel kernel;
   const char* name;     // command-line name (--kernel)
   bool exact;           // false: an approximation, reported with its error
-  const char* source;   // one line: seed and equation numbers
+  const char* source;   // one line: paper and equation numbers
 };
 
 // All polygon kernels, the default first.

@@ -157,7 +157,7 @@ bool whole_polygon_edge_sum(const Receiver& receiver, const Vec3* v, int n, doub
 }
 
 double edge_angle_sum(const Polygon& a, const Vec3& N) {
-  // seed 000 eq. (1), seed 002 eq. (3); see visible_polygon.h
+  // Heitz 2017 eq. (1), Stark 2000 eq. (3) (lambert.h); see visible_polygon.h
   constexpr size_t kBlock = 16;  // patches and clipped patches have at most 8 vertices
   const size_t n = a.size();
   double sum = 0.0;

@@ -2,11 +2,11 @@
 //
 //   F(dA -> P_k) = -1/(2π) Σ_i Θ_i  N · (a_i × a_{i+1}) / |a_i × a_{i+1}|,   a_i = v_i - p,
 //   Θ_i = atan2(|a_i × a_{i+1}|, a_i · a_{i+1})
-// Heitz 2017 (seed 000) eq. (1); Stark 2000 (seed 002) eq. (3) — the formula of lambert.h, whose
-// conventions (one-sided, horizon clipping, in-plane and boundary limits, atan2, edge normals
-// a_i × (v_{i+1} - v_i)) hold here unchanged: lambert_form_factors() returns, polygon by
-// polygon, what lambert_form_factor() returns, to rounding (≤ 1e-13 relative, or 1e-16 absolute
-// for values below 1e-3; tests/test_kernels_batch.cpp).
+// Heitz 2017 eq. (1); Stark 2000 eq. (3) (full references in lambert.h) — the formula of lambert.h,
+// whose conventions (one-sided, horizon clipping, in-plane and boundary limits, atan2, edge normals
+// a_i × (v_{i+1} - v_i)) hold here unchanged: lambert_form_factors() returns, polygon by polygon,
+// what lambert_form_factor() returns, to rounding (≤ 1e-13 relative, or 1e-16 absolute for values
+// below 1e-3; tests/test_kernels_batch.cpp).
 //
 // What is batched: one receiver (point, normal) against a run of source polygons of at most four
 // corners, stored as a structure of arrays (PolygonBatch). This is the shape of the form-factor
@@ -135,7 +135,7 @@ inline int lambert_form_factors(const Receiver& receiver, const PolygonBatch& so
   return lambert_form_factors(receiver, sources, 0, sources.size, out);
 }
 
-// The edge sum of the scalar kernels (seed 000 eq. 1, seed 002 eq. 3):
+// The edge sum of the scalar kernels (Heitz 2017 eq. 1, Stark 2000 eq. 3):
 //   Σ_{k<n} Θ_k proj[k] / len_k,  len_k = √len2[k],  Θ_k = atan2(len_k, dot[k]),
 // with len2[k] = |a_k × a_{k+1}|², dot[k] = a_k · a_{k+1}, proj[k] = N · (a_k × a_{k+1}); a term
 // with len2[k] = 0 (zero-length edge, or p on the edge's line) adds nothing. The square roots,

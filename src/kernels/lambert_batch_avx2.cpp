@@ -114,10 +114,10 @@ inline void atan2_upper(const B* y, const B* x, B* theta) {
   }
 }
 
-// Σ_i Θ_i N·(a_i × a_{i+1}) / |a_i × a_{i+1}| over the n edges of polygon a (seed 000 eq. 1,
-// seed 002 eq. 3) — lambert.cpp's edge_angle_sum() term for term (same products, same order;
-// a zero-length edge or a receiver on its line adds nothing), the n edges interleaved as above.
-// Also Σ_i |term_i|, the scale of the rounding errors of the sum.
+// Σ_i Θ_i N·(a_i × a_{i+1}) / |a_i × a_{i+1}| over the n edges of polygon a (Heitz 2017 eq. 1,
+// Stark 2000 eq. 3; references in lambert.h) — lambert.cpp's edge_angle_sum() term for term (same
+// products, same order; a zero-length edge or a receiver on its line adds nothing), the n edges
+// interleaved as above. Also Σ_i |term_i|, the scale of the rounding errors of the sum.
 template <int n>
 inline B lambert_sum(const V3* a, const V3& N, B& abs_sum) {
   B len[n], cos_part[n], normal_part[n], theta[n];
@@ -230,7 +230,7 @@ void block(const View& v, int k, double* res, int& simple_bits, int& zero_bits, 
   xsimd::select(simple, clamped, B(0.0)).store_aligned(res);
 }
 
-// One edge's term Θ N·(a × b)/|a × b|, Θ = atan2(|a × b|, a·b) (seed 000 eq. 1, seed 002
+// One edge's term Θ N·(a × b)/|a × b|, Θ = atan2(|a × b|, a·b) (Heitz 2017 eq. 1, Stark 2000
 // eq. 3), for a polygon that runs it from a to b (ends relative to p): lambert_sum()'s,
 // operation for operation, with its cross product on the shorter end
 // (a where both are equally far).
@@ -341,7 +341,7 @@ bool simd_atan2_avx2(const double* y, const double* x, double* out, int n) {
 }
 
 // Θ·proj/len with Θ = atan2(len, dot), len = √len2, as the scalar kernel rounds it: (Θ·proj)/len;
-// 0 where len2 = 0 (seed 000 eq. 1, one edge's term).
+// 0 where len2 = 0 (Heitz 2017 eq. 1, one edge's term).
 inline B edge_term(const B& len2, const B& ab, const B& proj) {
   const B len = xsimd::sqrt(len2);
   B theta;

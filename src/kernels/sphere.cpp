@@ -19,7 +19,7 @@ double t_minus_atan(double t) {
 // σ <= π/2 (cos_sigma >= 0).
 double cap_upper(double ss, double cs, double sb) {
   if (ss <= 0.0) return 0.0;
-  if (sb >= ss) return ss * ss * sb;  // wholly above: seed 000 eq. (16)
+  if (sb >= ss) return ss * ss * sb;  // wholly above: Heitz 2017 eq. (16)
   if (sb <= -ss) return 0.0;          // wholly below
   // Crossing the horizon: Howell B-43, rewritten (see sphere.h).
   const double R = std::sqrt((ss - sb) * (ss + sb));

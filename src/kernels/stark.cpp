@@ -25,7 +25,8 @@ double atan_ratio_minus_one(double t) {
 
 // a_j × a_{j+1} = a_j × e = a_{j+1} × e (e = a_{j+1} − a_j), formed on the shorter of the two
 // vertex vectors: e = a_{j+1} − a_j keeps the digits of the longer one only, and the edge normal
-// of a_j × (v_{j+1} − v_j) stays accurate for p close to the edge's line (DESIGN.md "Numerics").
+// of a_j × (v_{j+1} − v_j) stays accurate for p close to the edge's line (the numerics rules of
+// docs/theory.md).
 inline Vec3 edge_normal(const Vec3& aj, const Vec3& ak, const Vec3& e) {
   const Vec3& base = aj.squaredNorm() <= ak.squaredNorm() ? aj : ak;
   return base.cross(e);

@@ -1,5 +1,6 @@
-// Stark's vertex-based formulations of the point-to-polygon form factor (seed 002: M. Stark,
-// "Vertex-Based Formulations of Irradiance from Polygonal Sources", UUCS-00-012, 2000). Both are
+// Stark's vertex-based formulations of the point-to-polygon form factor (M. M. Stark,
+// "Vertex-Based Formulations of Irradiance from Polygonal Sources", University of Utah tech.
+// report UUCS-00-012, 2000; equation numbers below are the report's). Both are
 // sums over the vertices of the visible (clipped) polygon, equal to Lambert's edge sum; same
 // conventions and domain as lambert_form_factor() (see visible_polygon.h). Results in [0, 1].
 //
@@ -43,7 +44,7 @@
 
 namespace photometria {
 
-// Vertex-based reformulation of Lambert's formula, seed 002 eqs. (12)–(13):
+// Vertex-based reformulation of Lambert's formula, Stark 2000 eqs. (12)–(13):
 //   F = (1/2π) Σ_i [ ∠(a_i, e_{i−1}) N·n̂_{i−1} − ∠(a_i, e_i) N·n̂_i ],
 //   e_i = v_{i+1} − v_i,  n̂_i = (a_i × e_i)/|a_i × e_i|,  ∠(a, e) = atan2(h, t)  (eq. 11),
 // with h = |a × ê| (the distance of p from the edge's line, the same at both ends) and t = a·ê.
@@ -51,7 +52,7 @@ namespace photometria {
 // above), by atan2(h (t_a − t_m), h² + t_a t_m); centred evaluation (rewriting 2) far away.
 double stark_vertex_form_factor(const Receiver& receiver, const Vec3* polygon, int n);
 
-// Image-plane formula, seed 002 eqs. (8)–(10), in its projective / homogeneous form
+// Image-plane formula, Stark 2000 eqs. (8)–(10), in its projective / homogeneous form
 // (eqs. 43–46, Fig. 10–11). The visible polygon is projected through p onto the plane one unit
 // above the receiver (eq. 4): vertex a ↦ homogeneous point (X, Y, W) = (u·a, w·a, N·a), W = 0 for
 // a vertex on the receiver plane (a "vertex at infinity", sec. 6.4); an edge is the homogeneous

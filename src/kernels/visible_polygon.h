@@ -2,10 +2,10 @@
 // common first step of every exact point-to-polygon kernel (lambert, iwanicki, stark-vertex,
 // stark-image; see kernels.h).
 //
-// Conventions (DESIGN.md "Point queries", shared/refs/README.md):
+// Conventions (docs/theory.md "Units and conventions"; docs/usage.md `photometria formfactor`):
 //  - one-sided: a receiver behind the polygon's plane (Newell normal pointing away) sees nothing;
 //  - only the part above the receiver's tangent plane counts: the polygon is clipped to the
-//    closed half-space N·x >= 0 (Sutherland–Hodgman; seed 000 sec. 1 assumes a clipped polygon);
+//    closed half-space N·x >= 0 (Sutherland–Hodgman; Heitz 2017 sec. 1 assumes a clipped polygon);
 //  - a receiver in the polygon's plane sees zero solid angle, except on its boundary (an edge or
 //    a vertex) where the limit as p is approached along `Receiver::approach` is taken: a vertex
 //    at p is replaced by the direction −u (only directions from p matter to the kernels).
@@ -44,9 +44,10 @@ bool whole_polygon_edge_sum(const Receiver& receiver, const Vec3* polygon, int n
 
 // Σ_i Θ_i N·(a_i × a_{i+1}) / |a_i × a_{i+1}|,  Θ_i = atan2(|a_i × a_{i+1}|, a_i · a_{i+1}),
 // over the closed polygon `a` (vertices relative to the receiver): the edge sum of Lambert's
-// formula (seed 000 eq. 1, seed 002 eq. 3), equal to Iwanicki's Σ (Ω_i / sin Ω_i)(p_i × p_j)·N
-// for unnormalized vectors (seed 004, final formula); F = −sum / 2π. Edge normals are formed on
-// the shorter of a_i, a_{i+1}; a zero-length edge or an edge along a view ray adds nothing.
+// formula (Heitz 2017 eq. 1, Stark 2000 eq. 3; references in lambert.h), equal to Iwanicki's
+// Σ (Ω_i / sin Ω_i)(p_i × p_j)·N for unnormalized vectors (Iwanicki, final formula; iwanicki.h);
+// F = −sum / 2π. Edge normals are formed on the shorter of a_i, a_{i+1}; a zero-length edge or
+// an edge along a view ray adds nothing.
 double edge_angle_sum(const Polygon& a, const Vec3& N);
 
 }  // namespace photometria

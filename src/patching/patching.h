@@ -41,12 +41,12 @@ struct PatchMesh {
   }
   // Asks the CPU to fetch patch `ahead`'s record into the cache (no effect on results). A fill
   // row or a gather point visits every patch once, with visibility work in between that evicts
-  // what it read, so a large mesh's patch records (22,000 patches: 1.8 MB) arrive from memory
-  // one miss at a time unless asked for early. Out-of-range indices are ignored. Worth it only
-  // where the patches outgrow the core's cache (prefetch_pays()); below, it costs instructions
-  // only. The patches' corner points are not fetched: most pairs are settled by their tile
-  // (PointVisibility::tile_shadow) without corners, and fetching them for every patch cost
-  // 2% of the 22,419-patch bench room's wall time (docs/performance.md).
+  // what it read, so a large mesh's patch records arrive from memory one miss at a time unless
+  // asked for early. Out-of-range indices are ignored. Worth it only where the patches outgrow
+  // the core's cache (prefetch_pays()); below, it costs instructions only. The patches' corner
+  // points are not fetched: most pairs are settled by their tile (PointVisibility::tile_shadow)
+  // without corners, so fetching them for every patch costs more than it saves
+  // (docs/performance.md "What did not work").
   bool prefetch_pays() const { return size() >= 4096; }  // 4,096 patches: 320 KiB of records
   void prefetch(int ahead) const {
     if (ahead >= size()) return;

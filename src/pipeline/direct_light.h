@@ -1,12 +1,13 @@
 // Direct irradiance from a scene file's analytic lights (spheres and distant lights).
 //
 //   H_direct(x) = Σ_lights direct_irradiance(x, light) · S(x, light)
-// with direct_irradiance() the exact unoccluded value (kernels/lights.h: sphere form factor
-// incl. the horizon-crossing case, Howell B-43; distant cone with the UsdLux normalization,
-// seed 001) and S ∈ {0, 1} a hard shadow test: one segment from x towards the light's centre
-// (sphere: to its near surface point; distant: along the direction out of the scene). Partial
-// shadowing of an extended light by an occluder is not resolved (documented in docs/theory.md).
-// Shadow rays are cast only when some face can block (scene_needs_no_visibility is false).
+// with direct_irradiance() the exact unoccluded value (kernels/lights.h: sphere form factor incl.
+// the horizon-crossing case, Howell B-43; distant cone with the normalization of the OpenUSD UsdLux
+// note "Normalizing Distant Lights – In Depth", see kernels/distant.h) and S ∈ {0, 1} a hard shadow
+// test: one segment from x towards the light's centre (sphere: to its near surface point; distant:
+// along the direction out of the scene). Partial shadowing of an extended light by an occluder is
+// not resolved (documented in docs/theory.md). Shadow rays are cast only when some face can block
+// (scene_needs_no_visibility is false).
 #pragma once
 
 #include <memory>

@@ -58,8 +58,9 @@ struct StorageChoice {
 
 // Layout auto: the smaller of dense and sparse for `nonzeros` expected non-zero entries of an
 // n × n matrix (choose_layout). Precision auto: double, unless the matrix in double and
-// `other_bytes` would exceed the limit while float fits (DESIGN.md: everything double by
-// default, float storage said in the summary). The limit is `max_memory_bytes` when > 0, else
+// `other_bytes` would exceed the limit while float fits (everything is double by default; float
+// storage is said in the summary: docs/theory.md "Units and conventions", docs/usage.md
+// `--matrix-precision`). The limit is `max_memory_bytes` when > 0, else
 // MemAvailable.
 StorageChoice choose_storage(MatrixLayout layout, MatrixPrecision precision, double n, double nonzeros,
                              double other_bytes, double max_memory_bytes);

@@ -1,6 +1,6 @@
 // Turning a SolveResult into what the user sees: the .vtu grid, the JSON summary, the table.
 //
-// .vtu arrays (DESIGN.md "Output"): point data radiosity, irradiance (RGB, W/m²); cell data
+// .vtu arrays (docs/usage.md "Output"): point data radiosity, irradiance (RGB, W/m²); cell data
 // radiosity, irradiance, emission (RGB, W/m²), reflectance (RGB), area (m²), face (source face
 // index), group (source group index). One cell per patch.
 #pragma once

@@ -29,7 +29,7 @@ void gauss_seidel_sweep(const FormFactors& F, Eigen::VectorXd& B, const std::fun
 Eigen::VectorXd residual_vector(const ChannelProblem& p, const Eigen::VectorXd& B) {
   Eigen::VectorXd FB;
   multiply(p.F, B, FB);
-  // r = E + ρ∘(F B + H) − B  (solver.h, from DESIGN.md's B = E + ρ·H)
+  // r = E + ρ∘(F B + H) − B  (solver.h, from B = E + ρ·H, docs/theory.md)
   return p.E + p.rho.cwiseProduct(FB + p.H) - B;
 }
 

@@ -1,6 +1,6 @@
 // One colour channel of the radiosity system, shared by the solver methods.
 //
-//   K B = b,  K = I − diag(ρ) F,  b = E + ρ∘H_direct     (DESIGN.md "Physics conventions")
+//   K B = b,  K = I − diag(ρ) F,  b = E + ρ∘H_direct     (docs/theory.md "Units and conventions")
 //
 // All vectors have N entries (one per patch). F is the N × N row-major form-factor matrix.
 #pragma once

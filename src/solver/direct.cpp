@@ -5,7 +5,7 @@
 namespace photometria {
 
 ChannelResult direct_channel(const ChannelProblem& p, const SolverOptions& opt, Eigen::VectorXd& B) {
-  // K = I − diag(ρ) F  (direct.h; from B = E + ρ(F B + H), DESIGN.md)
+  // K = I − diag(ρ) F  (direct.h; from B = E + ρ(F B + H), docs/theory.md)
   Eigen::MatrixXd K = -(p.rho.asDiagonal() * p.F.to_dense());
   K.diagonal().array() += 1.0;
   const Eigen::PartialPivLU<Eigen::MatrixXd> lu(K);  // Golub & Van Loan Alg. 3.4.1

@@ -1,6 +1,6 @@
 // Gauss–Seidel solution of the radiosity system, one colour channel at a time.
 //
-//   B_i = E_i + ρ_i (Σ_j F_ij B_j + H_direct,i)          (DESIGN.md "Physics conventions")
+//   B_i = E_i + ρ_i (Σ_j F_ij B_j + H_direct,i)          (docs/theory.md "Units and conventions")
 //
 // Sweeps i = 0..N-1 updating B_i in place (Cohen & Greenberg 1985; Cohen & Wallace 1993, §5.3),
 // on every thread (channel.h gauss_seidel_sweep: the same iteration, summed in blocks).

@@ -1,6 +1,6 @@
 // The radiosity solve: pick a method, solve each colour channel, report what ran.
 //
-//   B_i = E_i + ρ_i (Σ_j F_ij B_j + H_direct,i)          (DESIGN.md "Physics conventions")
+//   B_i = E_i + ρ_i (Σ_j F_ij B_j + H_direct,i)          (docs/theory.md "Units and conventions")
 //
 // i.e. the linear system K B = E + ρ∘H_direct with K = I − diag(ρ) F (N × N, one per channel).
 // Every method stops on the same relative residual
@@ -8,7 +8,7 @@
 // evaluated with the true F (never a symmetrised or approximated one) before it reports success.
 //
 // Methods (one file each in src/solver/):
-//   gauss-seidel  in-place sweeps (gauss_seidel.cpp). The default for non-stiff scenes (DESIGN.md).
+//   gauss-seidel  in-place sweeps (gauss_seidel.cpp). The default for non-stiff scenes.
 //   sor           successive over-relaxation with Young's ω (sor.cpp).
 //   cg            conjugate gradients on the area-weighted symmetric formulation
 //                 diag(A/ρ) − diag(A)·F, with refinement against the true, only approximately

@@ -1,6 +1,6 @@
-// The speed benchmark behind `photometria bench`: the scenes of the speed issue, generated in
-// memory, run through the real pipeline, one row of figures per case (docs/performance.md,
-// "Reproducing these figures").
+// The speed benchmark behind `photometria bench`: the bench scenes (cube rooms, a furnished
+// room), generated in memory, run through the real pipeline, one row of figures per case
+// (docs/performance.md, "Running the bench").
 //
 // Cases, in order (the smallest size of each scene only with `quick`):
 //   cube n=8, 16, 32   closed unit cube room, inward-facing, meshed n × n per wall (N = 6 n²),

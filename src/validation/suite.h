@@ -1,10 +1,10 @@
 // The analytic reference suite: error against run time at a ladder of accuracy settings.
 //
-// Every reference comes from a closed form (shared/refs/public.json, shipped as
-// tests/data/refs_public.json; Howell's catalog cases, enclosure identities) or from an identity
-// that is exact for the continuous problem (white furnace B = E/(1−ρ); a sphere enclosure with
-// an emitting cap B_i = E_i + ρ/(1−ρ)·Ē). Each scene family is run at several settings
-// (patch subdivision n, receiver quadrature q, tessellation) and yields one row per setting.
+// Every reference comes from a closed form (tests/data/refs_public.json; Howell's catalog cases,
+// enclosure identities) or from an identity that is exact for the continuous problem (white furnace
+// B = E/(1−ρ); a sphere enclosure with an emitting cap B_i = E_i + ρ/(1−ρ)·Ē). Each scene family is
+// run at several settings (patch subdivision n, receiver quadrature q, tessellation) and yields one
+// row per setting.
 #pragma once
 
 #include <functional>

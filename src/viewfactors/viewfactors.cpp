@@ -350,7 +350,7 @@ ViewFactorMatrix point_view_factors(const std::vector<SurfacePoint>& points, con
       if (above <= tol || pj.normal.dot(x.position - pj.centroid) <= tol) continue;
       mesh.polygon(j, src);
       const Receiver receiver{x.position, x.normal};
-      // Lambert's closed form, kernels/lambert.h (Stark 2000 = seed 002 eq. 3).
+      // Lambert's closed form, kernels/lambert.h (Stark 2000, eq. 3).
       double f = lambert_form_factor(receiver, src, pj.corner_count);
       if (f > 0.0 && from_point) {
         bool unshadowed = true;

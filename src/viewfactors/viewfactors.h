@@ -138,8 +138,10 @@ std::vector<SurfacePoint> load_points(const std::string& path);
 std::vector<double> view3d_emissivities(const std::string& path);
 
 // P × G: F(dA_x -> surface I) = Σ_{j∈I} F_vis(dA_x -> P_j), Lambert's closed form
-// (kernels/lambert.h, seed 002 eq. 3) with visibility as in the vertex gather of the solve
-// (shaft culling, then exact clipping or rays). `visibility` may be null (nothing blocks).
+// (kernels/lambert.h; M. M. Stark, "Vertex-Based Formulations of Irradiance from Polygonal
+// Sources", University of Utah UUCS-00-012, 2000, eq. 3) with visibility as in the vertex gather of
+// the solve (shaft culling, then exact clipping or rays). `visibility` may be null (nothing
+// blocks).
 ViewFactorMatrix point_view_factors(const std::vector<SurfacePoint>& points, const PatchMesh& mesh,
                                     const Aggregation& agg, const Visibility* visibility,
                                     const ViewFactorOptions& options);

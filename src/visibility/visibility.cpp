@@ -1096,7 +1096,7 @@ struct PointVisibility::Impl {
   std::vector<TileClip> tiles;
   // The pieces of the tiles clipped from the current point, one tile after another, emptied per
   // point: a tile's pieces are contiguous and recently written. With storage per tile, every
-  // point swept all of it (perf, 22,419 patches: 60% of clip()'s samples were the first touch
+  // point swept all of it (in a large room most of clip()'s time went to the first touch
   // of a tile's own polygons).
   struct Piece {
     int first, count;  // corners arena_corners[first, first + count)
@@ -1401,7 +1401,7 @@ double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& no
   Polygon &rel = m.rel, &part = m.part;
   rel.resize(size_t(nb));
   // The box from scalars: AlignedBox::extend kept its corners on the stack and reloaded them
-  // across two stores, a stalled store forward per corner (perf: an eighth of this function).
+  // across two stores, a stalled store forward per corner (a visible share of this function).
   rel[0] = b[0] - m.x.point;
   double lo[3] = {rel[0].x(), rel[0].y(), rel[0].z()}, hi[3] = {lo[0], lo[1], lo[2]};
   for (int k = 1; k < nb; ++k) {
@@ -1443,7 +1443,7 @@ double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& no
   }
   auto piece = [&](size_t k) { return m.piece(c.first + static_cast<int>(k)); };
   // Lambert's formula is additive over a partition of the patch (an integral over directions;
-  // seed 002 sec. 1.1 clips the source the same way). Parts are moved along the
+  // Stark 2000 sec. 1.1 clips the source the same way). Parts are moved along the
   // tile's normal into the patch's own plane (they differ by rounding on a flat face, by at most
   // the flatness tolerance on a nearly flat one).
   const Receiver at_origin{Vec3::Zero(), m.x.normal, m.x.approach};

@@ -1,7 +1,7 @@
 // Visibility between patches: which pairs need it, and the visible part of a form factor.
 //
-// Occluders are every scene face, two-sided (DESIGN.md: emission and reflection are one-sided,
-// occlusion is two-sided). Three pieces, used per receiver point x (a quadrature point of a
+// Occluders are every scene face, two-sided (docs/theory.md "Units and conventions": emission and
+// reflection are one-sided, occlusion is two-sided). Three pieces, used per receiver point x (a quadrature point of a
 // patch, or an output vertex) and source patch P:
 //
 //  1. Shaft culling (Haines & Wallace, "Shaft culling for efficient ray-cast radiosity", 1994):
@@ -15,12 +15,14 @@
 //     differential form factor the same way); the visible factor is F(dA_x -> P) · V(x, P).
 //  3. Exact (Nishita & Nakamae 1985, in 3-D): P is clipped against the shadow volume of every
 //     candidate occluder W seen from x (the cone from x through W's edges, beyond W's plane),
-//     and Lambert's closed form (kernels/lambert.h, Stark 2000 = seed 002 eq. 3) is summed over
-//     the visible convex fragments (seed 002 sec. 1.1: occluded irradiance by clipping the source
-//     against the occluders, which is why vertex-based sums suit clipped polygons). Clipping
-//     against wedge planes through x in 3-D, not projecting onto an image plane, keeps occluders
-//     that touch the receiver's plane exact: the image-plane form needs the projected polygon
-//     bounded, i.e. strictly above the receiver plane (seed 002 sec. 2.2; sec. 6 for the fix).
+//     and Lambert's closed form (kernels/lambert.h; M. M. Stark, "Vertex-Based Formulations of
+//     Irradiance from Polygonal Sources", University of Utah UUCS-00-012, 2000, eq. 3) is summed
+//     over the visible convex fragments (Stark 2000 sec. 1.1: occluded irradiance by clipping
+//     the source against the occluders, which is why vertex-based sums suit clipped polygons).
+//     Clipping against wedge planes through x in 3-D, not projecting onto an image plane, keeps
+//     occluders that touch the receiver's plane exact: the image-plane form needs the projected
+//     polygon bounded, i.e. strictly above the receiver plane (Stark 2000 sec. 2.2; sec. 6 for the
+//     fix).
 #pragma once
 
 #include <Eigen/Geometry>
@@ -119,9 +121,9 @@ class ShaftCuller {
 // One per thread; not thread-safe.
 // Patches per tile: for a patch receiver's per-patch culling (each patch tests its tile's list),
 // and for PointVisibility, which clips a whole tile per point and settles most patches by
-// bounding boxes. Callgrind, one thread, bench room: tiles of 16 / 64 / 128 / 256 patches for
-// PointVisibility took 92.5 / 85.5 / 86.4 / 90.8 G instructions at 6,088 patches, and 16 / 64
-// took 11.42 / 11.05 G at 1,520 (docs/performance.md).
+// bounding boxes. Larger tiles mean fewer tile shafts, cones and clippings per point but more
+// patches per clipped tile; 64 took the fewest instructions of 16 / 64 / 128 / 256 on the bench
+// rooms (docs/performance.md "What did not work").
 constexpr int kTilePatches = 16;
 constexpr int kPointTilePatches = 64;
 
@@ -222,12 +224,12 @@ class Visibility;
 
 // Visible form factors from one point to the patches of a mesh: what the centroid rule's fill,
 // the vertex gather and the point view factors ask for, patch after patch. Tiles are those of
-// GroupedShaftCuller, of up to kPointTilePatches patches. In exact mode, the rectangle of each tile whose shaft holds occluders is
-// clipped against their shadow volumes once per point (exact_visible_form_factor's subtraction;
-// each volume built once per point), not each of its up to 16 patches: a patch that no hidden
-// piece overlaps keeps its unoccluded factor, and any other sums Lambert's closed form over its
-// intersections with the hidden pieces (subtracted) or the visible ones (the formula is additive
-// over a partition). The result equals
+// GroupedShaftCuller, of up to kPointTilePatches patches. In exact mode, the rectangle of each
+// tile whose shaft holds occluders is clipped against their shadow volumes once per point
+// (exact_visible_form_factor's subtraction; each volume built once per point), not each of its
+// patches: a patch that no hidden piece overlaps keeps its unoccluded factor, and any other sums
+// Lambert's closed form over its intersections with the hidden pieces (subtracted) or the
+// visible ones (the formula is additive over a partition). The result equals
 // exact_visible_form_factor(x, patch, occluders of the pair) up to rounding (the pieces are cut
 // along other lines; tests/test_visibility_scenes.cpp). Patches of no tile or of a box tile (a
 // face that is not flat), and ray mode, take Visibility::point_to_patch.
