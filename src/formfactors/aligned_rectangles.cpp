@@ -54,8 +54,12 @@ inline void split(ld x, double* out) {
 
 using aligned_rectangles_detail::combine;
 
+int slot_of(int normal_axis, int axis) { return (axis - normal_axis + 3) % 3 - 1; }
+
+}  // namespace
+
 // Per-patch result of the classification, before coordinates are merged.
-struct Raw {
+struct AlignedRectangles::Raw {
   int frame = -1, axis = 0, sign = 1;
   double offset = 0.0;
   double lo[2] = {0, 0}, hi[2] = {0, 0};  // per slot
@@ -63,7 +67,7 @@ struct Raw {
 };
 
 // Everything a table's build needs beyond the Table itself (freed after the build).
-struct Build {
+struct AlignedRectangles::Build {
   int table = 0, group = 0;
   std::vector<ld> dx;          // distinct |x − ξ| (outer)
   std::vector<ld> dy;          // parallel: distinct |y − η|
@@ -75,37 +79,43 @@ struct Build {
   const std::vector<std::pair<int32_t, int32_t>>* p_intervals = nullptr;
   const std::vector<std::pair<int32_t, int32_t>>* q_intervals = nullptr;
   size_t row = 0;              // stored values per outer index
+
+  // True when two builds have the same argument lists (then they share corner functions).
+  static bool same_arguments(const Build& a, const Build& b, bool parallel_a, bool parallel_b) {
+    return parallel_a == parallel_b && a.z == b.z && a.dx == b.dx && a.dy == b.dy && a.y == b.y && a.e == b.e;
+  }
+
+  // A hash of the argument lists, equal for builds with the same_arguments.
+  static size_t hash_arguments(const Build& b, bool parallel) {
+    size_t h = parallel ? 0x9e3779b97f4a7c15ull : 0;
+    auto mix = [&](const std::vector<ld>& v) {
+      h ^= v.size() + 0x9e3779b97f4a7c15ull + (h << 6) + (h >> 2);
+      for (ld x : v) h ^= std::hash<double>()(static_cast<double>(x)) + 0x9e3779b97f4a7c15ull + (h << 6) + (h >> 2);
+    };
+    mix(b.dx);
+    mix(b.dy);
+    mix(b.y);
+    mix(b.e);
+    return h ^ std::hash<double>()(static_cast<double>(b.z));
+  }
 };
 
 // Corner-function values shared by the plane pairs with the same argument lists (in a cube the
 // 12 perpendicular pairs, say): rows over dx, each dy (parallel) or y × e (perpendicular).
-struct Group {
+struct AlignedRectangles::Group {
   int first = 0;               // a member build, for the argument lists
   size_t row = 0;
   std::shared_ptr<std::vector<ld>> values;
 };
 
-bool same_arguments(const Build& a, const Build& b, bool parallel_a, bool parallel_b) {
-  return parallel_a == parallel_b && a.z == b.z && a.dx == b.dx && a.dy == b.dy && a.y == b.y && a.e == b.e;
-}
+// A plane pair that exchanges light, of P.patches × Q.patches pairs (>= 16: worth a table).
+struct AlignedRectangles::Candidate {
+  int p, q;
+  long long pairs;
+};
 
-size_t hash_arguments(const Build& b, bool parallel) {
-  size_t h = parallel ? 0x9e3779b97f4a7c15ull : 0;
-  auto mix = [&](const std::vector<ld>& v) {
-    h ^= v.size() + 0x9e3779b97f4a7c15ull + (h << 6) + (h >> 2);
-    for (ld x : v) h ^= std::hash<double>()(static_cast<double>(x)) + 0x9e3779b97f4a7c15ull + (h << 6) + (h >> 2);
-  };
-  mix(b.dx);
-  mix(b.dy);
-  mix(b.y);
-  mix(b.e);
-  return h ^ std::hash<double>()(static_cast<double>(b.z));
-}
-
-int slot_of(int normal_axis, int axis) { return (axis - normal_axis + 3) % 3 - 1; }
-
-}  // namespace
-
+// The constructor runs the steps in order; each leaves its results in the members (or returns
+// what only the next steps need).
 AlignedRectangles::AlignedRectangles(const PatchMesh& mesh, std::size_t max_table_bytes) {
   const int n = mesh.size();
   rects_.resize(n);
@@ -114,10 +124,38 @@ AlignedRectangles::AlignedRectangles(const PatchMesh& mesh, std::size_t max_tabl
   scale = std::max(scale, 1e-300);
   const double merge_tol = 1e-12 * scale;
 
-  // 1. Rectangles, grouped by frame.
   std::vector<Raw> raw(n);
+  classify(mesh, scale, raw);
+  merge_coordinates(raw, merge_tol);
+  make_planes(raw);
+  summary_.frames = static_cast<int>(frames_.size());
+  summary_.planes = static_cast<int>(planes_.size());
+
+  std::size_t budget = max_table_bytes;
+  const std::vector<Candidate> candidates = exchanging_pairs(max_table_bytes, budget);
+  std::vector<Build> builds = plan_tables(candidates, budget);
+
+  const std::vector<Group> groups = share_corner_functions(builds);
+  compute_corner_functions(builds, groups);
+  compute_interval_sums(builds, groups);
+  count_kept(groups);
+}
+
+// Charges `bytes` to the table budget (what is left of max_table_bytes) and to table_bytes_, if
+// they fit; false (and nothing charged) otherwise.
+bool AlignedRectangles::take(std::size_t& budget, std::size_t bytes) {
+  if (bytes > budget) return false;
+  budget -= bytes;
+  table_bytes_ += bytes;
+  return true;
+}
+
+// 1. Rectangles, grouped by frame: which patches are aligned rectangles, and their frames
+// (frames_), found or made as the patches come; raw[i] gets patch i's frame, normal axis, side,
+// offset and in-plane extents.
+void AlignedRectangles::classify(const PatchMesh& mesh, double scale, std::vector<Raw>& raw) {
   int last = -1;
-  for (int i = 0; i < n; ++i) {
+  for (int i = 0; i < mesh.size(); ++i) {
     const Patch& pa = mesh.patches[i];
     if (pa.corner_count != 4) continue;
     Vec3 c[4];
@@ -193,129 +231,125 @@ AlignedRectangles::AlignedRectangles(const PatchMesh& mesh, std::size_t max_tabl
       }
     }
   }
+}
 
-  // 2. Coordinates per frame axis, merged when closer than merge_tol.
+// 2. Coordinates per frame axis (frames_[f].coord), merged when closer than merge_tol; raw's
+// coordinates become indices into them (a rectangle collapsed by the merge is dropped).
+void AlignedRectangles::merge_coordinates(std::vector<Raw>& raw, double merge_tol) {
   const int nf = static_cast<int>(frames_.size());
-  {
-    std::vector<std::vector<double>> vals(3 * nf);
-    for (const Raw& r : raw) {
-      if (r.frame < 0) continue;
-      vals[3 * r.frame + r.axis].push_back(r.offset);
-      for (int s = 0; s < 2; ++s) {
-        auto& v = vals[3 * r.frame + (r.axis + 1 + s) % 3];
-        v.push_back(r.lo[s]);
-        v.push_back(r.hi[s]);
-      }
-    }
-    std::vector<std::vector<int32_t>> cluster(3 * nf);
-    for (int k = 0; k < 3 * nf; ++k) {
-      auto& v = vals[k];
-      std::sort(v.begin(), v.end());
-      auto& out = frames_[k / 3].coord[k % 3];
-      cluster[k].resize(v.size());
-      for (size_t m = 0; m < v.size(); ++m) {
-        if (m == 0 || v[m] - v[m - 1] > merge_tol) out.push_back(v[m]);
-        cluster[k][m] = static_cast<int32_t>(out.size()) - 1;
-      }
-    }
-    auto index = [&](int f, int axis, double x) {
-      const auto& v = vals[3 * f + axis];
-      return cluster[3 * f + axis][std::lower_bound(v.begin(), v.end(), x) - v.begin()];
-    };
-    for (Raw& r : raw) {
-      if (r.frame < 0) continue;
-      r.ioff = index(r.frame, r.axis, r.offset);
-      for (int s = 0; s < 2; ++s) {
-        r.ilo[s] = index(r.frame, (r.axis + 1 + s) % 3, r.lo[s]);
-        r.ihi[s] = index(r.frame, (r.axis + 1 + s) % 3, r.hi[s]);
-        if (r.ilo[s] == r.ihi[s]) r.frame = -1;  // collapsed by the merge: not a rectangle here
-      }
+  std::vector<std::vector<double>> vals(3 * nf);
+  for (const Raw& r : raw) {
+    if (r.frame < 0) continue;
+    vals[3 * r.frame + r.axis].push_back(r.offset);
+    for (int s = 0; s < 2; ++s) {
+      auto& v = vals[3 * r.frame + (r.axis + 1 + s) % 3];
+      v.push_back(r.lo[s]);
+      v.push_back(r.hi[s]);
     }
   }
-
-  // 3. Planes: (frame, normal axis, side, offset), consecutive per frame.
-  {
-    std::map<std::tuple<int, int, int, int32_t>, int> key_to_plane;
-    for (const Raw& r : raw)
-      if (r.frame >= 0) key_to_plane.emplace(std::make_tuple(r.frame, r.axis, r.sign, r.ioff), 0);
-    for (auto& [key, id] : key_to_plane) {
-      id = static_cast<int>(planes_.size());
-      Plane p;
-      std::tie(p.frame, p.axis, p.sign, p.offset) = key;
-      planes_.push_back(std::move(p));
-    }
-    for (int f = 0; f < nf; ++f) frames_[f].first_plane = -1;
-    for (int id = 0; id < static_cast<int>(planes_.size()); ++id) {
-      Frame& fr = frames_[planes_[id].frame];
-      if (fr.first_plane < 0) fr.first_plane = id;
-      ++fr.planes;
-    }
-    for (int i = 0; i < n; ++i) {
-      const Raw& r = raw[i];
-      if (r.frame < 0) continue;
-      const int id = key_to_plane.at(std::make_tuple(r.frame, r.axis, r.sign, r.ioff));
-      Plane& p = planes_[id];
-      ++p.patches;
-      for (int s = 0; s < 2; ++s) {
-        p.coords[s].push_back(r.ilo[s]);
-        p.coords[s].push_back(r.ihi[s]);
-      }
-      rects_[i].plane = id;
-    }
-    for (Plane& p : planes_)
-      for (auto& c : p.coords) {
-        std::sort(c.begin(), c.end());
-        c.erase(std::unique(c.begin(), c.end()), c.end());
-      }
-    for (int i = 0; i < n; ++i) {
-      const Raw& r = raw[i];
-      if (r.frame < 0) continue;
-      Rect& q = rects_[i];
-      Plane& p = planes_[q.plane];
-      q.frame = r.frame;
-      q.lplane = q.plane - frames_[r.frame].first_plane;
-      for (int s = 0; s < 2; ++s) {
-        const auto& c = p.coords[s];
-        q.l[s][0] = static_cast<int32_t>(std::lower_bound(c.begin(), c.end(), r.ilo[s]) - c.begin());
-        q.l[s][1] = static_cast<int32_t>(std::lower_bound(c.begin(), c.end(), r.ihi[s]) - c.begin());
-        p.intervals[s].emplace_back(q.l[s][0], q.l[s][1]);
-      }
-    }
-    for (Plane& p : planes_)
-      for (auto& iv : p.intervals) {
-        std::sort(iv.begin(), iv.end());
-        iv.erase(std::unique(iv.begin(), iv.end()), iv.end());
-      }
-    for (Rect& q : rects_) {
-      if (q.frame < 0) continue;
-      const Plane& p = planes_[q.plane];
-      for (int s = 0; s < 2; ++s) {
-        const auto& iv = p.intervals[s];
-        q.r[s] = static_cast<int32_t>(std::lower_bound(iv.begin(), iv.end(), std::make_pair(q.l[s][0], q.l[s][1])) -
-                                      iv.begin());
-      }
-      ++summary_.rectangles;
+  std::vector<std::vector<int32_t>> cluster(3 * nf);
+  for (int k = 0; k < 3 * nf; ++k) {
+    auto& v = vals[k];
+    std::sort(v.begin(), v.end());
+    auto& out = frames_[k / 3].coord[k % 3];
+    cluster[k].resize(v.size());
+    for (size_t m = 0; m < v.size(); ++m) {
+      if (m == 0 || v[m] - v[m - 1] > merge_tol) out.push_back(v[m]);
+      cluster[k][m] = static_cast<int32_t>(out.size()) - 1;
     }
   }
-  summary_.frames = nf;
-  summary_.planes = static_cast<int>(planes_.size());
+  auto index = [&](int f, int axis, double x) {
+    const auto& v = vals[3 * f + axis];
+    return cluster[3 * f + axis][std::lower_bound(v.begin(), v.end(), x) - v.begin()];
+  };
+  for (Raw& r : raw) {
+    if (r.frame < 0) continue;
+    r.ioff = index(r.frame, r.axis, r.offset);
+    for (int s = 0; s < 2; ++s) {
+      r.ilo[s] = index(r.frame, (r.axis + 1 + s) % 3, r.lo[s]);
+      r.ihi[s] = index(r.frame, (r.axis + 1 + s) % 3, r.hi[s]);
+      if (r.ilo[s] == r.ihi[s]) r.frame = -1;  // collapsed by the merge: not a rectangle here
+    }
+  }
+}
 
-  // 4. Plane pairs that exchange light; tables for the most used ones, within the budget.
-  std::size_t budget = max_table_bytes;
-  auto take = [&](std::size_t bytes) {
-    if (bytes > budget) return false;
-    budget -= bytes;
-    table_bytes_ += bytes;
-    return true;
-  };
-  struct Candidate {
-    int p, q;
-    long long pairs;
-  };
+// 3. Planes: (frame, normal axis, side, offset), consecutive per frame (planes_); per rectangle
+// (rects_) its plane, local coordinate indices and interval ids.
+void AlignedRectangles::make_planes(const std::vector<Raw>& raw) {
+  const int n = static_cast<int>(raw.size());
+  const int nf = static_cast<int>(frames_.size());
+  std::map<std::tuple<int, int, int, int32_t>, int> key_to_plane;
+  for (const Raw& r : raw)
+    if (r.frame >= 0) key_to_plane.emplace(std::make_tuple(r.frame, r.axis, r.sign, r.ioff), 0);
+  for (auto& [key, id] : key_to_plane) {
+    id = static_cast<int>(planes_.size());
+    Plane p;
+    std::tie(p.frame, p.axis, p.sign, p.offset) = key;
+    planes_.push_back(std::move(p));
+  }
+  for (int f = 0; f < nf; ++f) frames_[f].first_plane = -1;
+  for (int id = 0; id < static_cast<int>(planes_.size()); ++id) {
+    Frame& fr = frames_[planes_[id].frame];
+    if (fr.first_plane < 0) fr.first_plane = id;
+    ++fr.planes;
+  }
+  for (int i = 0; i < n; ++i) {
+    const Raw& r = raw[i];
+    if (r.frame < 0) continue;
+    const int id = key_to_plane.at(std::make_tuple(r.frame, r.axis, r.sign, r.ioff));
+    Plane& p = planes_[id];
+    ++p.patches;
+    for (int s = 0; s < 2; ++s) {
+      p.coords[s].push_back(r.ilo[s]);
+      p.coords[s].push_back(r.ihi[s]);
+    }
+    rects_[i].plane = id;
+  }
+  for (Plane& p : planes_)
+    for (auto& c : p.coords) {
+      std::sort(c.begin(), c.end());
+      c.erase(std::unique(c.begin(), c.end()), c.end());
+    }
+  for (int i = 0; i < n; ++i) {
+    const Raw& r = raw[i];
+    if (r.frame < 0) continue;
+    Rect& q = rects_[i];
+    Plane& p = planes_[q.plane];
+    q.frame = r.frame;
+    q.lplane = q.plane - frames_[r.frame].first_plane;
+    for (int s = 0; s < 2; ++s) {
+      const auto& c = p.coords[s];
+      q.l[s][0] = static_cast<int32_t>(std::lower_bound(c.begin(), c.end(), r.ilo[s]) - c.begin());
+      q.l[s][1] = static_cast<int32_t>(std::lower_bound(c.begin(), c.end(), r.ihi[s]) - c.begin());
+      p.intervals[s].emplace_back(q.l[s][0], q.l[s][1]);
+    }
+  }
+  for (Plane& p : planes_)
+    for (auto& iv : p.intervals) {
+      std::sort(iv.begin(), iv.end());
+      iv.erase(std::unique(iv.begin(), iv.end()), iv.end());
+    }
+  for (Rect& q : rects_) {
+    if (q.frame < 0) continue;
+    const Plane& p = planes_[q.plane];
+    for (int s = 0; s < 2; ++s) {
+      const auto& iv = p.intervals[s];
+      q.r[s] = static_cast<int32_t>(std::lower_bound(iv.begin(), iv.end(), std::make_pair(q.l[s][0], q.l[s][1])) -
+                                    iv.begin());
+    }
+    ++summary_.rectangles;
+  }
+}
+
+// 4. Plane pairs that exchange light; tables for the most used ones, within the budget.
+// 4a. Each frame's pair index (dense if it fits), the exchanging pairs marked kDirect in it;
+// returns those of at least 16 patch pairs, most pairs first: the candidates for tables.
+std::vector<AlignedRectangles::Candidate> AlignedRectangles::exchanging_pairs(std::size_t max_table_bytes,
+                                                                              std::size_t& budget) {
   std::vector<Candidate> candidates;
   for (Frame& fr : frames_) {
     const std::size_t np = static_cast<std::size_t>(fr.planes);
-    fr.dense = np * np * sizeof(int32_t) <= max_table_bytes / 4 && take(np * np * sizeof(int32_t));
+    fr.dense = np * np * sizeof(int32_t) <= max_table_bytes / 4 && take(budget, np * np * sizeof(int32_t));
     if (fr.dense) fr.pair_ids.assign(np * np, kNone);
     for (int p = fr.first_plane; p < fr.first_plane + fr.planes; ++p)
       for (int q = p + 1; q < fr.first_plane + fr.planes; ++q) {
@@ -343,7 +377,13 @@ AlignedRectangles::AlignedRectangles(const PatchMesh& mesh, std::size_t max_tabl
   }
   std::stable_sort(candidates.begin(), candidates.end(),
                    [](const Candidate& a, const Candidate& b) { return a.pairs > b.pairs; });
+  return candidates;
+}
 
+// 4b. A table (tables_, in the pair index) for each candidate that fits in the budget,
+// interval form where it pays, else corner form; returns what their values need (step 5).
+std::vector<AlignedRectangles::Build> AlignedRectangles::plan_tables(const std::vector<Candidate>& candidates,
+                                                                     std::size_t& budget) {
   std::vector<Build> builds;
   for (const Candidate& c : candidates) {
     const Plane& P = planes_[c.p];
@@ -414,7 +454,7 @@ AlignedRectangles::AlignedRectangles(const PatchMesh& mesh, std::size_t max_tabl
     const std::size_t max_entries = std::numeric_limits<int32_t>::max();  // offsets are int32
     const std::size_t index_bytes = fr.dense ? 0 : 48;  // a hash-map node otherwise
     if (interval_entries <= std::min(pairs, max_entries) &&
-        take(index_bytes + outer_bytes + interval_entries * sizeof(ld))) {
+        take(budget, index_bytes + outer_bytes + interval_entries * sizeof(ld))) {
       t.intervals = true;
       t.nr_q = static_cast<int32_t>(nrq);
       b.row = nrp * nrq;
@@ -422,7 +462,7 @@ AlignedRectangles::AlignedRectangles(const PatchMesh& mesh, std::size_t max_tabl
       b.q_intervals = &Q.intervals[t.q_inner];
       ++summary_.tables_interval;
     } else if (corner_entries <= std::min(4 * pairs, max_entries) &&
-               take(index_bytes + outer_bytes + inner_bytes + corner_entries * sizeof(ld))) {
+               take(budget, index_bytes + outer_bytes + inner_bytes + corner_entries * sizeof(ld))) {
       b.row = t.parallel ? b.dy.size() : b.y.size() * b.e.size();
       if (t.parallel) {
         t.inner = b.dy_id;
@@ -450,37 +490,45 @@ AlignedRectangles::AlignedRectangles(const PatchMesh& mesh, std::size_t max_tabl
     tables_.push_back(std::move(t));
     builds.push_back(std::move(b));
   }
+  return builds;
+}
 
-  // 5. Values. Builds with identical argument lists share their corner functions: first the
-  // corner functions of every group, one task per outer row, then the interval sums.
+// 5. Values. Builds with identical argument lists share their corner functions: first the
+// corner functions of every group, one task per outer row, then the interval sums.
+// 5a. The groups of builds with identical argument lists; corner-form tables point to their
+// group's values.
+std::vector<AlignedRectangles::Group> AlignedRectangles::share_corner_functions(std::vector<Build>& builds) {
   std::vector<Group> groups;
-  {
-    std::unordered_multimap<size_t, int> by_hash;
-    for (size_t k = 0; k < builds.size(); ++k) {
-      Build& b = builds[k];
-      const bool par = tables_[b.table].parallel;
-      const size_t h = hash_arguments(b, par);
-      b.group = -1;
-      for (auto [it, end] = by_hash.equal_range(h); it != end; ++it) {
-        const Build& o = builds[groups[it->second].first];
-        if (same_arguments(b, o, par, tables_[o.table].parallel)) { b.group = it->second; break; }
-      }
-      if (b.group < 0) {
-        b.group = static_cast<int>(groups.size());
-        Group g;
-        g.first = static_cast<int>(k);
-        g.row = par ? b.dy.size() : b.y.size() * b.e.size();
-        g.values = std::make_shared<std::vector<ld>>(b.dx.size() * g.row);
-        groups.push_back(std::move(g));
-        by_hash.emplace(h, b.group);
-      }
-      Table& t = tables_[b.table];
-      if (!t.intervals) {
-        t.corner_values = groups[b.group].values;
-        t.corner = t.corner_values->data();
-      }
+  std::unordered_multimap<size_t, int> by_hash;
+  for (size_t k = 0; k < builds.size(); ++k) {
+    Build& b = builds[k];
+    const bool par = tables_[b.table].parallel;
+    const size_t h = Build::hash_arguments(b, par);
+    b.group = -1;
+    for (auto [it, end] = by_hash.equal_range(h); it != end; ++it) {
+      const Build& o = builds[groups[it->second].first];
+      if (Build::same_arguments(b, o, par, tables_[o.table].parallel)) { b.group = it->second; break; }
+    }
+    if (b.group < 0) {
+      b.group = static_cast<int>(groups.size());
+      Group g;
+      g.first = static_cast<int>(k);
+      g.row = par ? b.dy.size() : b.y.size() * b.e.size();
+      g.values = std::make_shared<std::vector<ld>>(b.dx.size() * g.row);
+      groups.push_back(std::move(g));
+      by_hash.emplace(h, b.group);
+    }
+    Table& t = tables_[b.table];
+    if (!t.intervals) {
+      t.corner_values = groups[b.group].values;
+      t.corner = t.corner_values->data();
     }
   }
+  return groups;
+}
+
+// 5b. The corner functions of every group, one task per outer row (OpenMP).
+void AlignedRectangles::compute_corner_functions(const std::vector<Build>& builds, const std::vector<Group>& groups) {
   std::vector<std::pair<int, int32_t>> tasks;
   for (size_t g = 0; g < groups.size(); ++g)
     for (size_t d = 0; d < builds[groups[g].first].dx.size(); ++d)
@@ -501,11 +549,15 @@ AlignedRectangles::AlignedRectangles(const PatchMesh& mesh, std::size_t max_tabl
         for (size_t l = 0; l < ne; ++l) row[j * ne + l] = gq(x, b.y[j], b.e[l]);
     }
   }
-  tasks.clear();
+}
+
+// 5c. The interval form's inner sums, one task per outer row (OpenMP).
+void AlignedRectangles::compute_interval_sums(const std::vector<Build>& builds, const std::vector<Group>& groups) {
+  std::vector<std::pair<int, int32_t>> tasks;
   for (size_t k = 0; k < builds.size(); ++k)
     if (tables_[builds[k].table].intervals)
       for (size_t d = 0; d < builds[k].dx.size(); ++d) tasks.emplace_back(static_cast<int>(k), static_cast<int32_t>(d));
-  ntasks = static_cast<long long>(tasks.size());
+  const long long ntasks = static_cast<long long>(tasks.size());
 #pragma omp parallel for schedule(dynamic, 1)
   for (long long k = 0; k < ntasks; ++k) {
     const Build& b = builds[tasks[k].first];
@@ -541,8 +593,10 @@ AlignedRectangles::AlignedRectangles(const PatchMesh& mesh, std::size_t max_tabl
         split((row[i00] - row[i01]) - (row[i10] - row[i11]), out + 2 * (rp * iq.size() + rq));
       }
   }
+}
 
-  // What is kept (<= the budget charged above: shared corner functions count once here).
+// 5d. What is kept (<= the budget charged above: shared corner functions count once here).
+void AlignedRectangles::count_kept(const std::vector<Group>& groups) {
   table_bytes_ = 0;
   summary_.table_entries = 0;
   for (const Frame& fr : frames_) table_bytes_ += fr.pair_ids.size() * sizeof(int32_t) + fr.pair_map.size() * 48;

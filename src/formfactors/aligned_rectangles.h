@@ -164,6 +164,22 @@ class AlignedRectangles {
   double corner_form(const Table& t, const Rect& p, const Rect& q) const;
   double direct(const Rect& p, const Rect& q) const;
 
+  // The constructor's steps, in order (aligned_rectangles.cpp), and what passes between them.
+  struct Raw;        // a patch's classification, before coordinates are merged
+  struct Candidate;  // a plane pair that exchanges light, worth a table
+  struct Build;      // what a table's values need beyond the Table (freed after the build)
+  struct Group;      // corner functions shared by builds with the same argument lists
+  void classify(const PatchMesh& mesh, double scale, std::vector<Raw>& raw);  // 1. rectangles, frames
+  void merge_coordinates(std::vector<Raw>& raw, double merge_tol);            // 2. coordinates
+  void make_planes(const std::vector<Raw>& raw);                              // 3. planes
+  std::vector<Candidate> exchanging_pairs(std::size_t max_table_bytes, std::size_t& budget);  // 4a.
+  std::vector<Build> plan_tables(const std::vector<Candidate>& candidates, std::size_t& budget);  // 4b.
+  std::vector<Group> share_corner_functions(std::vector<Build>& builds);                   // 5a.
+  void compute_corner_functions(const std::vector<Build>& builds, const std::vector<Group>& groups);  // 5b.
+  void compute_interval_sums(const std::vector<Build>& builds, const std::vector<Group>& groups);     // 5c.
+  void count_kept(const std::vector<Group>& groups);                                       // 5d.
+  bool take(std::size_t& budget, std::size_t bytes);  // charges bytes to the budget if they fit
+
   std::vector<Rect> rects_;
   std::vector<Plane> planes_;
   std::vector<Frame> frames_;

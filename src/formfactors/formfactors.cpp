@@ -33,6 +33,304 @@ PolygonBatch patch_batch(const PatchMesh& mesh) {
   return batch;
 }
 
+namespace {
+
+// The fill's counts (FillStats): pairs by what became of them, rays and kernel evaluations. One
+// set per thread, added up after the rows (integers: the order of the sums does not matter).
+struct FillCounts {
+  long long evaluated = 0, backfacing = 0, tested = 0, culled = 0, occluded = 0, rays = 0, above = 0, rescaled = 0;
+  long long fixed_rule = 0, gauss = 0, adaptive = 0, kernels = 0, exact_rectangles = 0;
+
+  void merge(const FillCounts& o) {
+    evaluated += o.evaluated;
+    backfacing += o.backfacing;
+    tested += o.tested;
+    culled += o.culled;
+    occluded += o.occluded;
+    rays += o.rays;
+    above += o.above;
+    rescaled += o.rescaled;
+    fixed_rule += o.fixed_rule;
+    gauss += o.gauss;
+    adaptive += o.adaptive;
+    kernels += o.kernels;
+    exact_rectangles += o.exact_rectangles;
+  }
+};
+
+// What every row of one fill reads: set up before the rows, shared by the threads.
+struct FillSetup {
+  const PatchMesh& mesh;
+  const FillOptions& options;
+  int n;
+  double tol;                       // plane_tolerance(mesh)
+  const Visibility* vis;            // null: no occlusion
+  bool rays_mode;                   // vis in ray mode
+  bool per_pair;                    // accuracy mode: the per-pair rule for pairs nothing can block
+  const AlignedRectangles* rects;   // per-pair mode with closed forms for aligned rectangles, else null
+  bool mirror;                      // closed forms once per pair, the lower row's entry mirrored later
+  bool prefetch;                    // prefetch patch records ahead of the pair loop
+  const PolygonBatch& sources;      // every patch, for the batched kernel
+  const FacingGroups& facing_runs;  // the facing test per group of coplanar sources
+};
+
+// One row F_i,· of the fill: receiver patch i, its quadrature rule and the row's buffers, and
+// one function per kind of pair: closed form mirrored, per-pair rule (nothing can block), the
+// fixed rule with visibility from one point (PointVisibility) or per receiver point (the pair's
+// shaft). Values and the order of every sum are those of the single loop this was cut from.
+class RowFill {
+ public:
+  // grouped, point_visibility: the thread's (null without visibility); row: n entries, zero.
+  RowFill(const FillSetup& setup, int i, GroupedShaftCuller* grouped, PointVisibility* point_visibility, double* row,
+          FillCounts& counts)
+      : s_(setup), i_(i), pi_(setup.mesh.patches[i]), grouped_(grouped), row_(row), k_(counts) {
+    s_.mesh.polygon(i, ri_);
+    rule_ = patch_quadrature(ri_, pi_.corner_count, s_.options.quadrature);
+    nq_ = static_cast<int>(rule_.size());
+    point_sum_.assign(size_t(nq_), 0.0);
+    if (s_.rays_mode) ray_part_.assign(size_t(nq_) * s_.n, 0.0);
+    unoccluded_.resize(size_t(nq_));
+    // With a one-point rule and no per-pair rule, visibility is taken from that point alone
+    // (PointVisibility: the point's shafts, narrower than the patch's, and in exact mode one
+    // clipping per tile of patches rather than per patch).
+    const bool point_shafts = !s_.per_pair && nq_ == 1;
+    from_point_ = s_.vis && point_shafts ? point_visibility : nullptr;
+    if (from_point_) from_point_->set_receiver(Receiver{rule_[0].point, pi_.normal});
+    else if (grouped_) grouped_->set_receiver(ri_, pi_.corner_count);
+  }
+
+  // Every pair (i, j), j != i, into row[j].
+  void fill_pairs() {
+    for (int j = 0; j < s_.n; ++j) {
+      if (s_.prefetch) s_.mesh.prefetch(j + 16);
+      if (j == i_) continue;
+      pair(j);
+    }
+  }
+
+  // A receiver point sees at most its hemisphere: Σ_j F_vis(x_q -> P_j) <= 1. Scale the
+  // ray-estimated terms of a point whose sum exceeds that (see the header). Raises
+  // max_point_sum to the row's largest point sum.
+  void rescale_rays(double& max_point_sum) {
+    for (int q = 0; q < nq_; ++q) {
+      max_point_sum = std::max(max_point_sum, point_sum_[q]);
+      if (!s_.rays_mode || point_sum_[q] <= 1.0) continue;
+      double ray_sum = 0.0;
+      for (int j = 0; j < s_.n; ++j) ray_sum += ray_part_[size_t(q) * s_.n + j];
+      if (ray_sum <= 0.0) continue;
+      // Keep the unoccluded (culled) terms, shrink the ray terms so the point's sum becomes 1.
+      const double keep = std::max(0.0, 1.0 - (point_sum_[q] - ray_sum)) / ray_sum;
+      if (keep >= 1.0) continue;
+      ++k_.rescaled;
+      for (int j = 0; j < s_.n; ++j) {
+        const double v = ray_part_[size_t(q) * s_.n + j];
+        if (v > 0.0) row_[j] = std::max(0.0, row_[j] - rule_[q].weight * v * (1.0 - keep));
+      }
+    }
+  }
+
+ private:
+  using TileShadow = PointVisibility::TileShadow;
+
+  // F_ij: a pair facing away is skipped; aligned rectangles take their closed form (mirrored,
+  // or as a pair nothing can block); per-pair mode tests the shaft first; the rest take the
+  // fixed rule.
+  void pair(int j) {
+    const bool analytic = s_.rects && s_.rects->eligible(i_, j);
+    double area_factor = 0.0;
+    if (analytic) {
+      if (s_.mirror && j < i_) return;  // from row j's entry after the loop (reciprocity)
+      area_factor = s_.rects->area_factor(i_, j);  // 0 exactly when the pair cannot exchange light
+      const int count = s_.mirror ? 2 : 1;         // with mirroring this stands for (i, j) and (j, i)
+      if (!(area_factor > 0.0)) { k_.backfacing += count; return; }
+      if (s_.mirror) {
+        row_[j] = area_factor / pi_.area;
+        k_.evaluated += 2;
+        k_.exact_rectangles += 2;
+        return;
+      }
+    } else if (classify_row(); facing_[size_t(j)] == Facing::Away ||
+                               (facing_[size_t(j)] == Facing::Test && facing_away(s_.mesh, i_, j, s_.tol))) {
+      ++k_.backfacing;
+      return;
+    }
+    have_sj_ = false;  // P_j's corners, fetched only where needed (not for closed forms)
+    bool shaft_known = false;
+    if (s_.per_pair) {
+      if (s_.vis) {
+        source(j);
+        ++k_.tested;
+        grouped_->occluders(j, sj_, s_.mesh.patches[j].corner_count, occluders_);
+        shaft_known = true;
+      }
+      if (!s_.vis || occluders_.empty()) {
+        unblocked(j, analytic, area_factor);
+        return;
+      }
+    }
+    fixed_rule(j, shaft_known);
+  }
+
+  // Per-pair mode, a pair nothing can block: the closed form of aligned rectangles, else the
+  // per-pair rule to the requested accuracy. Its value stands in for each receiver point's.
+  void unblocked(int j, bool analytic, double area_factor) {
+    const Patch& pj = s_.mesh.patches[j];
+    k_.culled += s_.vis != nullptr;
+    double f;
+    if (analytic) {
+      f = area_factor / pi_.area;
+      ++k_.exact_rectangles;
+    } else {
+      const PairResult r = pair_form_factor(ri_, pi_.corner_count, pi_.normal, source(j), pj.corner_count, pj.normal,
+                                            s_.options.tolerance);
+      f = r.form_factor;
+      k_.kernels += r.evaluations;
+      k_.gauss += r.rule == PairRule::Gauss;
+      k_.adaptive += r.rule == PairRule::Adaptive;
+    }
+    ++k_.evaluated;
+    row_[j] = f;
+    for (int q = 0; q < nq_; ++q) point_sum_[q] += f;  // the pair's value stands in for each point's
+  }
+
+  // The fixed rule: Lambert's kernel at each receiver point (unoccluded_), then, with
+  // visibility, its visible part: by the patch's tile alone where that settles it, else from
+  // the one point (visible_from_point) or per point in the pair's shaft (visible_per_point).
+  void fixed_rule(int j, bool shaft_known) {
+    const Patch& pj = s_.mesh.patches[j];
+    ++k_.fixed_rule;
+    k_.kernels += nq_;
+    double f0 = 0.0;
+    for (int q = 0; q < nq_; ++q) {
+      // A receiver point in P_j's plane sees P_j edge-on. Lambert's kernel returns its limit
+      // from P_j's front when the point is on P_j's boundary (right for vertices at creases);
+      // an interior quadrature point lands there only where a face of an occluder stands on
+      // patch i (a table leg on the floor), and then that limit and the occlusion seen from
+      // the point itself would count half a hemisphere twice. With visibility on, take 0.
+      unoccluded_[q] = s_.vis && std::abs(pj.normal.dot(rule_[q].point - pj.centroid)) <= s_.vis->culler().tolerance()
+                           ? 0.0
+                           : kernel_at(q, j);
+      f0 += rule_[q].weight * unoccluded_[q];
+    }
+    ++k_.evaluated;
+    double f = f0;
+    const TileShadow shadow = from_point_ && f0 > 0.0 ? from_point_->tile_shadow(j) : TileShadow::Unknown;
+    if (shadow == TileShadow::None) {
+      ++k_.tested, ++k_.culled;  // the patch's tile is unshadowed: f stands, without the patch's corners
+    } else if (shadow == TileShadow::Full) {
+      ++k_.tested, ++k_.occluded;  // the patch's tile is hidden: f = 0, without the patch's corners
+      f = unoccluded_[0] = 0.0;
+    } else if (from_point_ && f0 > 0.0) {
+      f = visible_from_point(j, f0);
+    } else if (s_.vis && f0 > 0.0) {
+      f = visible_per_point(j, f0, shaft_known);
+    }
+    for (int q = 0; q < nq_; ++q) point_sum_[q] += unoccluded_[q];
+    row_[j] = f;
+  }
+
+  // The one-point rule's visible factor from PointVisibility (f0: the unoccluded one).
+  double visible_from_point(int j, double f0) {
+    const Patch& pj = s_.mesh.patches[j];
+    ++k_.tested;
+    bool unshadowed = true;
+    // Only rays use the pair's stream.
+    const uint64_t stream = s_.rays_mode ? pair_stream(pair_stream(s_.options.seed, uint64_t(i_), uint64_t(j)), 0, 0) : 0;
+    const double v = from_point_->visible(j, source(j), pj.corner_count, pj.normal, unoccluded_[0], s_.options.rays,
+                                          stream, k_.rays, unshadowed);
+    if (unshadowed) ++k_.culled;
+    if (s_.rays_mode && !unshadowed) ray_part_[size_t(j)] = v;
+    unoccluded_[0] = v;
+    const double f = rule_[0].weight * v;
+    if (f == 0.0) ++k_.occluded;
+    if (f > f0) ++k_.above;
+    return f;
+  }
+
+  // The visible factor summed over the receiver points, each culled in the pair's shaft (tested
+  // already where shaft_known) and then by Visibility::point_to_patch (f0: the unoccluded one).
+  double visible_per_point(int j, double f0, bool shaft_known) {
+    const Patch& pj = s_.mesh.patches[j];
+    if (!shaft_known) {
+      ++k_.tested;
+      grouped_->occluders(j, source(j), pj.corner_count, occluders_);
+    }
+    if (occluders_.empty()) {
+      ++k_.culled;
+      return f0;
+    }
+    double f = 0.0;
+    const uint64_t stream = pair_stream(s_.options.seed, uint64_t(i_), uint64_t(j));
+    for (int q = 0; q < nq_; ++q) {
+      const double v = s_.vis->point_to_patch(Receiver{rule_[q].point, pi_.normal}, source(j), pj.corner_count, pj.normal,
+                                              unoccluded_[q], occluders_, s_.options.rays,
+                                              pair_stream(stream, uint64_t(q), 0), k_.rays);
+      if (s_.rays_mode) ray_part_[size_t(q) * s_.n + j] = v;
+      unoccluded_[q] = v;  // now the visible factor
+      f += rule_[q].weight * v;
+    }
+    if (f == 0.0) ++k_.occluded;
+    if (f > f0) ++k_.above;
+    return f;
+  }
+
+  // P_j's corners (sj_), fetched on first need per pair.
+  Vec3* source(int j) {
+    if (!have_sj_) s_.mesh.polygon(j, sj_);
+    have_sj_ = true;
+    return sj_;
+  }
+
+  // The facing classes of the row, on first need (closed-form pairs do not use them).
+  void classify_row() {
+    if (facing_.empty()) {
+      facing_.resize(static_cast<size_t>(s_.n));
+      s_.facing_runs.classify(i_, facing_.data());
+    }
+  }
+
+  // Lambert's kernel from each receiver point to every patch (nq × n), batched, on first need.
+  double kernel_at(int q, int j) {
+    if (kernel_.empty()) {
+      kernel_.resize(size_t(nq_) * s_.n);
+      // Only for the sources that face the receiver: the others are never read, except that
+      // closed-form pairs (which skip the facing test) may be read, so then for all.
+      if (!s_.rects) classify_row();
+      for (int k = 0; k < nq_; ++k) {
+        const Receiver at{rule_[k].point, pi_.normal};
+        double* out = kernel_.data() + size_t(k) * s_.n;
+        if (s_.rects) lambert_form_factors(at, s_.sources, 0, s_.n, out);
+        else lambert_form_factors_facing(at, s_.sources, facing_.data(), out);
+      }
+    }
+    return kernel_[size_t(q) * s_.n + j];
+  }
+
+  const FillSetup& s_;
+  const int i_;
+  const Patch& pi_;
+  Vec3 ri_[4], sj_[4];
+  bool have_sj_ = false;
+  std::vector<QuadraturePoint> rule_;
+  int nq_ = 0;
+  // Per receiver point: its visible factor to each source (for the row-sum check and scaling),
+  // and the part of that which rays estimated (the only part that may need scaling).
+  std::vector<double> point_sum_, ray_part_;
+  std::vector<double> unoccluded_;  // per receiver point, of the current pair
+  std::vector<int> occluders_;
+  // Shaft culling in a hierarchy (face, tile, patch; visibility.h); one per thread, reused across rows.
+  GroupedShaftCuller* grouped_;
+  PointVisibility* from_point_ = nullptr;
+  double* row_;
+  std::vector<Facing> facing_;
+  std::vector<double> kernel_;
+  FillCounts& k_;
+};
+
+}  // namespace
+
+#pragma omp declare reduction(merge : FillCounts : omp_out.merge(omp_in)) initializer(omp_priv = FillCounts())
+
 FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options, FillStats& stats) {
   const int n = mesh.size();
   FormFactors F(n, options.layout == MatrixLayout::Sparse ? MatrixLayout::Sparse : MatrixLayout::Dense, options.precision);
@@ -40,8 +338,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
   const Visibility* vis = options.visibility;
   const bool rays_mode = vis && vis->method() == VisibilityMethod::Rays;
   std::atomic<int> rows_done{0};
-  long long evaluated = 0, backfacing = 0, tested = 0, culled = 0, occluded = 0, rays = 0, above = 0, rescaled = 0;
-  long long fixed_rule = 0, gauss = 0, adaptive = 0, kernels = 0, exact_rectangles = 0;
+  FillCounts counts;
   // Accuracy mode: every pair nothing can block (no visibility, or an empty shaft) gets the
   // per-pair rule, and pairs of aligned rectangles their closed form; blocked pairs the fixed rule.
   const bool per_pair = options.tolerance > 0.0;
@@ -56,39 +353,17 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
   // The facing test per group of coplanar sources, so most pairs skip facing_away (facing.h).
   const FacingGroups facing_runs(mesh, tol);
   const bool prefetch = mesh.prefetch_pays() && !mirror;  // (mirrored rows read no patch records)
+  const FillSetup setup{mesh, options, n, tol, vis, rays_mode, per_pair, rects.get(), mirror, prefetch, sources, facing_runs};
 
   std::vector<GroupedShaftCuller> grouped_cullers;
-  std::vector<PointVisibility> point_visibility;  // one-point rules: visibility from the point (see below)
+  std::vector<PointVisibility> point_visibility;  // one-point rules: visibility from the point (see RowFill)
   if (vis) {
     grouped_cullers.assign(size_t(omp_get_max_threads()), GroupedShaftCuller(vis->culler(), mesh));
     for (int t = 0; t < omp_get_max_threads(); ++t) point_visibility.emplace_back(*vis, mesh);
   }
 
-#pragma omp parallel for schedule(dynamic, 4) \
-    reduction(+ : evaluated, backfacing, tested, culled, occluded, rays, above, rescaled, fixed_rule, gauss, adaptive, kernels, exact_rectangles) \
-    reduction(max : max_point_sum)
+#pragma omp parallel for schedule(dynamic, 4) reduction(merge : counts) reduction(max : max_point_sum)
   for (int i = 0; i < n; ++i) {
-    Vec3 ri[4], sj[4];
-    mesh.polygon(i, ri);
-    const Patch& pi = mesh.patches[i];
-    const auto rule = patch_quadrature(ri, pi.corner_count, options.quadrature);
-    const int nq = static_cast<int>(rule.size());
-    // Per receiver point: its visible factor to each source (for the row-sum check and scaling),
-    // and the part of that which rays estimated (the only part that may need scaling).
-    std::vector<double> point_sum(nq, 0.0), ray_part;
-    if (rays_mode) ray_part.assign(size_t(nq) * n, 0.0);
-    std::vector<double> unoccluded(nq);
-    std::vector<int> occluders;
-    // Shaft culling in a hierarchy (face, tile, patch; visibility.h); one per thread, reused across rows.
-    GroupedShaftCuller* grouped = vis ? &grouped_cullers[size_t(omp_get_thread_num())] : nullptr;
-    // With a one-point rule and no per-pair rule, visibility is taken from that point alone
-    // (PointVisibility: the point's shafts, narrower than the patch's, and in exact mode one
-    // clipping per tile of patches rather than per patch).
-    const bool point_shafts = !per_pair && nq == 1;
-    PointVisibility* from_point = vis && point_shafts ? &point_visibility[size_t(omp_get_thread_num())] : nullptr;
-    if (from_point) from_point->set_receiver(Receiver{rule[0].point, pi.normal});
-    else if (grouped) grouped->set_receiver(ri, pi.corner_count);
-    using TileShadow = PointVisibility::TileShadow;
     // F_i,·: written in place into a dense double matrix (zero until now), else into a buffer.
     std::vector<double> row_buffer;
     double* row = F.dense_double_row(i);
@@ -96,164 +371,11 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
       row_buffer.assign(size_t(n), 0.0);
       row = row_buffer.data();
     }
-    // The facing classes of the row, on first need (closed-form pairs do not use them).
-    std::vector<Facing> facing;
-    auto classify_row = [&]() {
-      if (facing.empty()) {
-        facing.resize(static_cast<size_t>(n));
-        facing_runs.classify(i, facing.data());
-      }
-    };
-    // Lambert's kernel from each receiver point to every patch (nq × n), batched, on first need.
-    std::vector<double> kernel;
-    auto kernel_at = [&](int q, int j) {
-      if (kernel.empty()) {
-        kernel.resize(size_t(nq) * n);
-        // Only for the sources that face the receiver: the others are never read, except that
-        // closed-form pairs (which skip the facing test) may be read, so then for all.
-        if (!rects) classify_row();
-        for (int k = 0; k < nq; ++k) {
-          const Receiver at{rule[k].point, pi.normal};
-          double* out = kernel.data() + size_t(k) * n;
-          if (rects) lambert_form_factors(at, sources, 0, n, out);
-          else lambert_form_factors_facing(at, sources, facing.data(), out);
-        }
-      }
-      return kernel[size_t(q) * n + j];
-    };
-    for (int j = 0; j < n; ++j) {
-      if (prefetch) mesh.prefetch(j + 16);
-      if (j == i) continue;
-      const bool analytic = rects && rects->eligible(i, j);
-      double area_factor = 0.0;
-      if (analytic) {
-        if (mirror && j < i) continue;  // from row j's entry after the loop (reciprocity)
-        area_factor = rects->area_factor(i, j);  // 0 exactly when the pair cannot exchange light
-        const int count = mirror ? 2 : 1;        // with mirroring this stands for (i, j) and (j, i)
-        if (!(area_factor > 0.0)) { backfacing += count; continue; }
-        if (mirror) {
-          row[j] = area_factor / pi.area;
-          evaluated += 2;
-          exact_rectangles += 2;
-          continue;
-        }
-      } else if (classify_row(); facing[size_t(j)] == Facing::Away ||
-                                 (facing[size_t(j)] == Facing::Test && facing_away(mesh, i, j, tol))) {
-        ++backfacing;
-        continue;
-      }
-      const Patch& pj = mesh.patches[j];
-      bool have_sj = false;  // P_j's corners, fetched only where needed (not for closed forms)
-      auto source = [&]() {
-        if (!have_sj) mesh.polygon(j, sj);
-        have_sj = true;
-        return sj;
-      };
-      bool shaft_known = false;
-      if (per_pair) {
-        if (vis) {
-          source();
-          ++tested;
-          grouped->occluders(j, sj, pj.corner_count, occluders);
-          shaft_known = true;
-        }
-        if (!vis || occluders.empty()) {
-          culled += vis != nullptr;
-          double f;
-          if (analytic) {
-            f = area_factor / pi.area;
-            ++exact_rectangles;
-          } else {
-            const PairResult r = pair_form_factor(ri, pi.corner_count, pi.normal, source(), pj.corner_count, pj.normal,
-                                                  options.tolerance);
-            f = r.form_factor;
-            kernels += r.evaluations;
-            gauss += r.rule == PairRule::Gauss;
-            adaptive += r.rule == PairRule::Adaptive;
-          }
-          ++evaluated;
-          row[j] = f;
-          for (int q = 0; q < nq; ++q) point_sum[q] += f;  // the pair's value stands in for each point's
-          continue;
-        }
-      }
-      ++fixed_rule;
-      kernels += nq;
-      double f0 = 0.0;
-      for (int q = 0; q < nq; ++q) {
-        // A receiver point in P_j's plane sees P_j edge-on. Lambert's kernel returns its limit
-        // from P_j's front when the point is on P_j's boundary (right for vertices at creases);
-        // an interior quadrature point lands there only where a face of an occluder stands on
-        // patch i (a table leg on the floor), and then that limit and the occlusion seen from
-        // the point itself would count half a hemisphere twice. With visibility on, take 0.
-        unoccluded[q] = vis && std::abs(pj.normal.dot(rule[q].point - pj.centroid)) <= vis->culler().tolerance()
-                            ? 0.0
-                            : kernel_at(q, j);
-        f0 += rule[q].weight * unoccluded[q];
-      }
-      ++evaluated;
-      double f = f0;
-      const TileShadow shadow = from_point && f0 > 0.0 ? from_point->tile_shadow(j) : TileShadow::Unknown;
-      if (shadow == TileShadow::None) {
-        ++tested, ++culled;  // the patch's tile is unshadowed: f stands, without the patch's corners
-      } else if (shadow == TileShadow::Full) {
-        ++tested, ++occluded;  // the patch's tile is hidden: f = 0, without the patch's corners
-        f = unoccluded[0] = 0.0;
-      } else if (from_point && f0 > 0.0) {
-        ++tested;
-        bool unshadowed = true;
-        // Only rays use the pair's stream.
-        const uint64_t stream = rays_mode ? pair_stream(pair_stream(options.seed, uint64_t(i), uint64_t(j)), 0, 0) : 0;
-        const double v = from_point->visible(j, source(), pj.corner_count, pj.normal, unoccluded[0], options.rays,
-                                             stream, rays, unshadowed);
-        if (unshadowed) ++culled;
-        if (rays_mode && !unshadowed) ray_part[size_t(j)] = v;
-        unoccluded[0] = v;
-        f = rule[0].weight * v;
-        if (f == 0.0) ++occluded;
-        if (f > f0) ++above;
-      } else if (vis && f0 > 0.0) {
-        if (!shaft_known) {
-          ++tested;
-          grouped->occluders(j, source(), pj.corner_count, occluders);
-        }
-        if (occluders.empty()) {
-          ++culled;
-        } else {
-          f = 0.0;
-          const uint64_t stream = pair_stream(options.seed, uint64_t(i), uint64_t(j));
-          for (int q = 0; q < nq; ++q) {
-            const double v = vis->point_to_patch(Receiver{rule[q].point, pi.normal}, source(), pj.corner_count, pj.normal,
-                                                 unoccluded[q], occluders, options.rays,
-                                                 pair_stream(stream, uint64_t(q), 0), rays);
-            if (rays_mode) ray_part[size_t(q) * n + j] = v;
-            unoccluded[q] = v;  // now the visible factor
-            f += rule[q].weight * v;
-          }
-          if (f == 0.0) ++occluded;
-          if (f > f0) ++above;
-        }
-      }
-      for (int q = 0; q < nq; ++q) point_sum[q] += unoccluded[q];
-      row[j] = f;
-    }
-    // A receiver point sees at most its hemisphere: Σ_j F_vis(x_q -> P_j) <= 1. Scale the
-    // ray-estimated terms of a point whose sum exceeds that (see the header).
-    for (int q = 0; q < nq; ++q) {
-      max_point_sum = std::max(max_point_sum, point_sum[q]);
-      if (!rays_mode || point_sum[q] <= 1.0) continue;
-      double ray_sum = 0.0;
-      for (int j = 0; j < n; ++j) ray_sum += ray_part[size_t(q) * n + j];
-      if (ray_sum <= 0.0) continue;
-      // Keep the unoccluded (culled) terms, shrink the ray terms so the point's sum becomes 1.
-      const double keep = std::max(0.0, 1.0 - (point_sum[q] - ray_sum)) / ray_sum;
-      if (keep >= 1.0) continue;
-      ++rescaled;
-      for (int j = 0; j < n; ++j) {
-        const double v = ray_part[size_t(q) * n + j];
-        if (v > 0.0) row[j] = std::max(0.0, row[j] - rule[q].weight * v * (1.0 - keep));
-      }
-    }
+    const int thread = omp_get_thread_num();
+    RowFill fill(setup, i, vis ? &grouped_cullers[size_t(thread)] : nullptr,
+                 vis ? &point_visibility[size_t(thread)] : nullptr, row, counts);
+    fill.fill_pairs();
+    fill.rescale_rays(max_point_sum);
     F.set_row(i, row);
     const int done = ++rows_done;
     if (options.progress && omp_get_thread_num() == 0) options.progress(double(done) / n);
@@ -267,20 +389,20 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
 #pragma omp parallel for schedule(static) reduction(max : max_point_sum)
     for (int i = 0; i < n; ++i) max_point_sum = std::max(max_point_sum, F.row_sum(i));
   }
-  stats.pairs_evaluated += evaluated;
-  stats.pairs_backfacing += backfacing;
-  stats.pairs_tested += tested;
-  stats.pairs_culled += culled;
-  stats.pairs_occluded += occluded;
-  stats.rays_cast += rays;
-  stats.pairs_fixed_rule += fixed_rule;
-  stats.pairs_gauss += gauss;
-  stats.pairs_adaptive += adaptive;
-  stats.pairs_exact_rectangles += exact_rectangles;
-  stats.kernel_evaluations += kernels;
-  stats.above_unoccluded += above;
+  stats.pairs_evaluated += counts.evaluated;
+  stats.pairs_backfacing += counts.backfacing;
+  stats.pairs_tested += counts.tested;
+  stats.pairs_culled += counts.culled;
+  stats.pairs_occluded += counts.occluded;
+  stats.rays_cast += counts.rays;
+  stats.pairs_fixed_rule += counts.fixed_rule;
+  stats.pairs_gauss += counts.gauss;
+  stats.pairs_adaptive += counts.adaptive;
+  stats.pairs_exact_rectangles += counts.exact_rectangles;
+  stats.kernel_evaluations += counts.kernels;
+  stats.above_unoccluded += counts.above;
   stats.max_point_row_sum = std::max(stats.max_point_row_sum, max_point_sum);
-  stats.points_rescaled += rescaled;
+  stats.points_rescaled += counts.rescaled;
   return F;
 }
 

@@ -1,0 +1,237 @@
+// Shaft culling (Haines & Wallace 1994; visibility.h, 1.): the shaft of two polygons (or a point
+// and a polygon) as its bounding box and the planes of its convex hull, and ShaftCuller's AABB
+// tree over the scene faces' bounding boxes, which finds the faces that may meet a shaft.
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+#include <vector>
+
+#include "visibility/visibility.h"
+#include "visibility/visibility_internal.h"
+
+namespace photometria {
+
+using namespace visibility_detail;
+
+namespace {
+
+// The shaft of A and B (each a polygon or a point; A ∪ B at most kMaxShaftPoints points): its
+// bounding box, and the planes of the convex hull of A ∪ B, built on first need (most queries are
+// settled by bounding boxes alone). A hull face of two convex polygons contains either a whole
+// polygon, or an edge of one and a vertex of the other, so these candidates are complete; a
+// candidate is kept when every point lies on one closed side. For a non-convex B (a scene face
+// used as a group of patches) the kept planes still each bound A ∪ B, so their intersection
+// contains the hull: culling stays conservative.
+class Shaft {
+ public:
+  Shaft(const Vec3* a, int na, const Vec3* b, int nb, double tol) : a_(a), b_(b), na_(na), nb_(nb), tol_(tol) {
+    for (int k = 0; k < na; ++k) box_.extend(a[k]);
+    for (int k = 0; k < nb; ++k) box_.extend(b[k]);
+    box_.min().array() -= tol;
+    box_.max().array() += tol;
+  }
+  const Eigen::AlignedBox3d& box() const { return box_; }
+
+  // True when face w (unit plane normal `normal`) cannot meet the open shaft: every corner of A
+  // and B on one closed side of its plane (no open segment crosses it; this leaves out the faces
+  // A and B lie in and faces they only touch), or w wholly on the outer side of one hull plane.
+  bool misses(const Polygon& w, const Vec3& normal) {
+    bool below = true, above = true;
+    for (int k = 0; k < na_ + nb_; ++k) {
+      const double s = normal.dot((k < na_ ? a_[k] : b_[k - na_]) - w[0]);
+      below = below && s <= tol_;
+      above = above && s >= -tol_;
+    }
+    if (below || above) return true;
+    if (!have_planes_) build_planes();
+    for (int i = 0; i < plane_count_; ++i) {
+      const Plane& p = planes_[i];
+      bool outside = true;
+      for (const Vec3& v : w)
+        if (!(p.m.dot(v) - p.d >= -tol_)) {
+          outside = false;
+          break;
+        }
+      if (outside) return true;
+    }
+    return false;
+  }
+
+ private:
+  // A point and a convex polygon it does not lie in the plane of (the gathers' and the centroid
+  // rule's shafts): the hull is a pyramid whose planes are known, one per base edge through the
+  // apex plus the base, so no candidate needs checking against every point.
+  bool build_pyramid_planes() {
+    if (na_ != 1 || nb_ < 3 || nb_ > 4) return false;
+    const Vec3& x = a_[0];
+    const Vec3 nb = newell_vector(b_, nb_);
+    const double nlen = nb.norm();
+    if (!(nlen > 0.0)) return false;
+    const Vec3 n = nb / nlen;
+    const double h = n.dot(x - b_[0]);
+    if (!(std::abs(h) > tol_)) return false;  // apex (nearly) in the base plane
+    Vec3 centre = Vec3::Zero();
+    for (int k = 0; k < nb_; ++k) {
+      const Vec3 turn = (b_[(k + 1) % nb_] - b_[k]).cross(b_[(k + 2) % nb_] - b_[(k + 1) % nb_]);
+      if (!(turn.dot(n) > 0.0)) return false;  // not strictly convex: the general hull
+      centre += b_[k] / nb_;
+    }
+    for (int k = 0; k < nb_; ++k) {
+      Vec3 m = (b_[k] - x).cross(b_[(k + 1) % nb_] - x);
+      const double len = m.norm();
+      if (!(len > 0.0)) return false;
+      m /= len;
+      if (m.dot(centre - x) > 0.0) m = -m;  // pointing out of the pyramid
+      planes_[plane_count_++] = {m, m.dot(x)};
+    }
+    const Vec3 out = h > 0.0 ? Vec3(-n) : n;  // beyond the base, away from the apex
+    planes_[plane_count_++] = {out, out.dot(b_[0])};
+    return true;
+  }
+
+  void build_planes() {
+    have_planes_ = true;
+    if (build_pyramid_planes()) return;
+    plane_count_ = 0;
+    Vec3 pts[kMaxShaftPoints];
+    int np = 0;
+    for (int k = 0; k < na_; ++k) pts[np++] = a_[k];
+    for (int k = 0; k < nb_; ++k) pts[np++] = b_[k];
+    auto try_plane = [&](Vec3 m, const Vec3& p0) {
+      const double len = m.norm();
+      if (!(len > 0.0) || plane_count_ == kMaxPlanes) return;
+      m /= len;
+      const double d = m.dot(p0);
+      bool below = true, above = true;
+      for (int k = 0; k < np; ++k) {
+        const double s = m.dot(pts[k]) - d;
+        below = below && s <= tol_;
+        above = above && s >= -tol_;
+      }
+      if (below) planes_[plane_count_++] = {m, d};
+      else if (above) planes_[plane_count_++] = {-m, -d};
+    };
+    auto edges_with_vertices = [&](const Vec3* p, int n, const Vec3* q, int nq) {
+      if (n < 2) return;
+      for (int e = 0; e < n; ++e) {
+        const Vec3& e0 = p[e];
+        const Vec3& e1 = p[(e + 1) % n];
+        for (int v = 0; v < nq; ++v) try_plane((e1 - e0).cross(q[v] - e0), e0);
+      }
+    };
+    edges_with_vertices(a_, na_, b_, nb_);
+    edges_with_vertices(b_, nb_, a_, na_);
+    if (na_ >= 3) try_plane(newell_vector(a_, na_), a_[0]);
+    if (nb_ >= 3) try_plane(newell_vector(b_, nb_), b_[0]);
+  }
+
+  // Enough for every candidate of a quad against a 20-corner group (2·4·20 + 2); dropping a
+  // plane beyond it would only cull less.
+  static constexpr int kMaxPlanes = 2 * 4 * (kMaxShaftPoints - 4) + 2;
+  const Vec3 *a_, *b_;
+  int na_, nb_;
+  double tol_;
+  Eigen::AlignedBox3d box_;
+  bool have_planes_ = false;
+  int plane_count_ = 0;
+  Plane planes_[kMaxPlanes];
+};
+
+}  // namespace
+
+ShaftCuller::ShaftCuller(const Scene& scene) {
+  tol_ = 1e-9 * std::max(bounding_diagonal(scene.vertices), 1e-30);
+  const int n = static_cast<int>(scene.faces.size());
+  faces_.reserve(n);
+  for (int f = 0; f < n; ++f) {
+    faces_.push_back(scene.face_polygon(f));
+    normals_.push_back(polygon_normal(faces_.back()));
+    Eigen::AlignedBox3d box;
+    for (const Vec3& v : faces_.back()) box.extend(v);
+    boxes_.push_back(box);
+  }
+  order_.resize(n);
+  std::iota(order_.begin(), order_.end(), 0);
+  if (n > 0) {
+    nodes_.reserve(2 * n);
+    build(0, n);
+  }
+  find_convex_solids(scene);
+}
+
+// Median split on the longest axis of the box centres; leaves hold up to 4 faces.
+int ShaftCuller::build(int first, int count) {
+  const int id = static_cast<int>(nodes_.size());
+  nodes_.emplace_back();
+  Eigen::AlignedBox3d box, centres;
+  for (int k = first; k < first + count; ++k) {
+    box.extend(boxes_[order_[k]]);
+    centres.extend(boxes_[order_[k]].center());
+  }
+  nodes_[id].box = box;
+  if (count <= 4) {
+    nodes_[id].first = first;
+    nodes_[id].count = count;
+    return id;
+  }
+  int axis = 0;
+  centres.sizes().maxCoeff(&axis);
+  const int half = count / 2;
+  std::nth_element(order_.begin() + first, order_.begin() + first + half, order_.begin() + first + count,
+                   [&](int x, int y) { return boxes_[x].center()[axis] < boxes_[y].center()[axis]; });
+  const int left = build(first, half);
+  const int right = build(first + half, count - half);
+  nodes_[id].left = left;
+  nodes_[id].right = right;
+  return id;
+}
+
+void ShaftCuller::occluders(const Vec3* a, int na, const Vec3* b, int nb, std::vector<int>& out,
+                            bool drop_hidden) const {
+  out.clear();
+  if (nodes_.empty()) return;
+  if (na + nb > kMaxShaftPoints) throw std::invalid_argument("ShaftCuller: a shaft of more than 24 points");
+  if (drop_hidden && na != 1) throw std::invalid_argument("ShaftCuller: drop_hidden needs a point receiver");
+  Shaft shaft(a, na, b, nb, tol_);
+  // drop_hidden: the faces the point is clearly behind, of convex solids it is clearly outside
+  // of, are skipped before the costlier shaft tests (drop_hidden_faces() during the search).
+  thread_local std::vector<signed char> outside_state;
+  thread_local std::vector<int> touched;
+  if (drop_hidden) outside_state.resize(solids_.size(), 0);
+  auto hidden = [&](int f) { return hidden_from(a[0], f, outside_state, touched); };
+  int stack[128];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const Node& node = nodes_[stack[--top]];
+    if (!boxes_meet(node.box, shaft.box())) continue;
+    if (node.left < 0) {
+      for (int k = node.first; k < node.first + node.count; ++k) {
+        const int f = order_[k];
+        if (boxes_meet(boxes_[f], shaft.box()) && !(drop_hidden && hidden(f)) && !shaft.misses(faces_[f], normals_[f]))
+          out.push_back(f);
+      }
+    } else {
+      stack[top++] = node.left;
+      stack[top++] = node.right;
+    }
+  }
+  if (drop_hidden) {
+    for (int solid : touched) outside_state[size_t(solid)] = 0;
+    touched.clear();
+  }
+  std::sort(out.begin(), out.end());  // a fixed order: results do not depend on the traversal
+}
+
+void ShaftCuller::occluders_among(const Vec3* a, int na, const Vec3* b, int nb, const std::vector<int>& candidates,
+                                  std::vector<int>& out) const {
+  out.clear();
+  if (candidates.empty()) return;
+  if (na + nb > kMaxShaftPoints) throw std::invalid_argument("ShaftCuller: a shaft of more than 24 points");
+  Shaft shaft(a, na, b, nb, tol_);
+  for (int f : candidates)
+    if (boxes_meet(boxes_[f], shaft.box()) && !shaft.misses(faces_[f], normals_[f])) out.push_back(f);
+}
+
+}  // namespace photometria

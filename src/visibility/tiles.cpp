@@ -1,0 +1,133 @@
+// Tiles: a mesh's patches grouped per scene face into tiles of neighbouring patches, each
+// bounded by a rectangle in the face's plane (or a box), and the hierarchical shaft culling of
+// one receiver against them: face, then tile, then patch (GroupedShaftCuller, visibility.h).
+#include <algorithm>
+#include <stdexcept>
+#include <utility>
+#include <vector>
+
+#include "visibility/visibility.h"
+#include "visibility/visibility_internal.h"
+
+namespace photometria {
+
+using namespace visibility_detail;
+
+namespace {
+
+// Splits patches[first, first + count) (indices of one face's patches, with their centroids'
+// in-plane coordinates uv) at the median of the longer extent until each part has at most
+// tile_patches; appends the parts' ranges.
+void split_tiles(std::vector<int>& patches, const std::vector<Eigen::Vector2d>& uv, int first, int count,
+                 int tile_patches, std::vector<std::pair<int, int>>& ranges) {
+  if (count <= tile_patches) {
+    ranges.emplace_back(first, count);
+    return;
+  }
+  Eigen::AlignedBox2d box;
+  for (int k = first; k < first + count; ++k) box.extend(uv[size_t(patches[size_t(k)])]);
+  const int axis = box.sizes().x() >= box.sizes().y() ? 0 : 1;
+  const int half = count / 2;
+  std::nth_element(patches.begin() + first, patches.begin() + first + half, patches.begin() + first + count,
+                   [&](int x, int y) { return uv[size_t(x)][axis] < uv[size_t(y)][axis]; });
+  split_tiles(patches, uv, first, half, tile_patches, ranges);
+  split_tiles(patches, uv, first + half, count - half, tile_patches, ranges);
+}
+
+}  // namespace
+
+GroupedShaftCuller::GroupedShaftCuller(const ShaftCuller& culler, const PatchMesh& mesh, int tile_patches)
+    : culler_(&culler), tile_of_patch_(size_t(mesh.size()), -1) {
+  if (tile_patches < 1) throw std::invalid_argument("GroupedShaftCuller: tile_patches must be at least 1");
+  const int faces = culler.face_count();
+  std::vector<std::vector<int>> by_face(static_cast<size_t>(faces));
+  for (int j = 0; j < mesh.size(); ++j)
+    if (mesh.patches[size_t(j)].face >= 0 && mesh.patches[size_t(j)].face < faces)
+      by_face[size_t(mesh.patches[size_t(j)].face)].push_back(j);
+  std::vector<Eigen::Vector2d> uv(size_t(mesh.size()), Eigen::Vector2d::Zero());
+  for (int f = 0; f < faces; ++f) {
+    std::vector<int>& patches = by_face[size_t(f)];
+    if (patches.empty()) continue;
+    // An orthonormal frame (u, v, w) with w the face's normal (any frame if it has none).
+    Vec3 w = polygon_normal(culler.faces()[size_t(f)]);
+    if (w.isZero()) w = Vec3::UnitZ();
+    const Vec3 u = w.unitOrthogonal(), v = w.cross(u);
+    for (int j : patches) uv[size_t(j)] = Eigen::Vector2d(u.dot(mesh.patches[size_t(j)].centroid), v.dot(mesh.patches[size_t(j)].centroid));
+    std::vector<std::pair<int, int>> ranges;
+    split_tiles(patches, uv, 0, static_cast<int>(patches.size()), tile_patches, ranges);
+    for (const auto& [first, count] : ranges) {
+      Eigen::AlignedBox3d box;  // in (u, v, w) coordinates
+      for (int k = first; k < first + count; ++k) {
+        const Patch& p = mesh.patches[size_t(patches[size_t(k)])];
+        for (int c = 0; c < p.corner_count; ++c) {
+          const Vec3& x = mesh.points[size_t(p.corners[size_t(c)])];
+          box.extend(Vec3(u.dot(x), v.dot(x), w.dot(x)));
+        }
+      }
+      // Grown by the culler's tolerance: the rectangle must contain the patches, not just touch them.
+      box.min().array() -= culler.tolerance();
+      box.max().array() += culler.tolerance();
+      Tile tile;
+      tile.face = f;
+      const bool flat = box.sizes().z() <= 4.0 * culler.tolerance();
+      const double w_mid = 0.5 * (box.min().z() + box.max().z());
+      const double us[2] = {box.min().x(), box.max().x()}, vs[2] = {box.min().y(), box.max().y()};
+      const double ws[2] = {box.min().z(), box.max().z()};
+      for (int iw = 0; iw < (flat ? 1 : 2); ++iw) {
+        const double wc = flat ? w_mid : ws[iw];
+        // Counter-clockwise around w: (u0,v0), (u1,v0), (u1,v1), (u0,v1).
+        const double cu[4] = {us[0], us[1], us[1], us[0]}, cv[4] = {vs[0], vs[0], vs[1], vs[1]};
+        for (int c = 0; c < 4; ++c) tile.corners[tile.corner_count++] = cu[c] * u + cv[c] * v + wc * w;
+      }
+      const int t = static_cast<int>(tiles_.size());
+      tiles_.push_back(tile);
+      tile_corner_counts_.push_back(static_cast<unsigned char>(tile.corner_count));
+      for (int k = first; k < first + count; ++k) tile_of_patch_[size_t(patches[size_t(k)])] = t;
+    }
+  }
+  stamp_.assign(size_t(faces) + tiles_.size(), -1);
+  groups_.resize(size_t(faces) + tiles_.size());
+}
+
+void GroupedShaftCuller::set_receiver(const Vec3* a, int na) {
+  if (na < 1 || na > 4) throw std::invalid_argument("GroupedShaftCuller: a receiver of 1 to 4 points");
+  std::copy(a, a + na, receiver_);
+  receiver_count_ = na;
+  ++generation_;
+}
+
+const std::vector<int>& GroupedShaftCuller::group(int g) {
+  std::vector<int>& list = groups_[size_t(g)];
+  if (stamp_[size_t(g)] == generation_) return list;
+  stamp_[size_t(g)] = generation_;
+  const int faces = culler_->face_count();
+  if (g < faces) {
+    const Polygon& face = culler_->faces()[size_t(g)];
+    // From a point, a convex solid's back faces cast no shadow of their own (drop_hidden_faces):
+    // leaving them out here shortens every list below.
+    culler_->occluders(receiver_, receiver_count_, face.data(), static_cast<int>(face.size()), list,
+                       /*drop_hidden=*/receiver_count_ == 1);
+    return list;
+  }
+  const Tile& tile = tiles_[size_t(g - faces)];
+  if (static_cast<int>(culler_->faces()[size_t(tile.face)].size()) + 4 > kMaxShaftPoints)
+    culler_->occluders(receiver_, receiver_count_, tile.corners, tile.corner_count, list);  // a face of many corners: no face level
+  else
+    culler_->occluders_among(receiver_, receiver_count_, tile.corners, tile.corner_count, group(tile.face), list);
+  return list;
+}
+
+void GroupedShaftCuller::occluders(int patch, const Vec3* b, int nb, std::vector<int>& out) {
+  const int t = patch >= 0 && patch < static_cast<int>(tile_of_patch_.size()) ? tile_of_patch_[size_t(patch)] : -1;
+  if (t < 0) {
+    culler_->occluders(receiver_, receiver_count_, b, nb, out);
+    return;
+  }
+  culler_->occluders_among(receiver_, receiver_count_, b, nb, group(culler_->face_count() + t), out);
+}
+
+int GroupedShaftCuller::tile_of(int patch) const {
+  return patch >= 0 && patch < static_cast<int>(tile_of_patch_.size()) ? tile_of_patch_[size_t(patch)] : -1;
+}
+
+}  // namespace photometria
