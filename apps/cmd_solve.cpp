@@ -105,12 +105,7 @@ int run_solve(const SolveArgs& a) {
   opt.solver.tolerance = setting(a.tolerance, st, "tolerance", 1e-8);
   opt.solver.max_iterations = setting(a.max_iterations, st, "max_iterations", 100000);
   opt.solver.method = pm::parse_method(setting(a.solver, st, "solver", std::string("auto")));
-  const std::string vis = setting(a.visibility, st, "visibility", std::string("auto"));
-  if (vis == "auto") opt.visibility = pm::VisibilityMode::Auto;
-  else if (vis == "none") opt.visibility = pm::VisibilityMode::None;
-  else if (vis == "rays") opt.visibility = pm::VisibilityMode::Rays;
-  else if (vis == "exact") opt.visibility = pm::VisibilityMode::Exact;
-  else pm::throw_bad_input("--visibility: '" + vis + "' is not one of auto, none, rays, exact");
+  opt.visibility = pm::parse_visibility_mode(setting(a.visibility, st, "visibility", std::string("auto")));
   // Written so that NaN fails too.
   if (!(opt.patching.max_edge >= 0 && opt.patching.max_area >= 0) || !std::isfinite(opt.patching.max_edge) ||
       !std::isfinite(opt.patching.max_area))

@@ -130,7 +130,6 @@ class RowFill {
   }
 
  private:
-  using TileShadow = PointVisibility::TileShadow;
 
   // F_ij: a pair facing away is skipped; aligned rectangles take their closed form (mirrored,
   // or as a pair nothing can block); per-pair mode tests the shaft first; the rest take the
@@ -194,8 +193,8 @@ class RowFill {
   }
 
   // The fixed rule: Lambert's kernel at each receiver point (unoccluded_), then, with
-  // visibility, its visible part: by the patch's tile alone where that settles it, else from
-  // the one point (visible_from_point) or per point in the pair's shaft (visible_per_point).
+  // visibility, its visible part: from the one point (visible_from_point: the patch's tile
+  // alone where that settles it) or per point in the pair's shaft (visible_per_point).
   void fixed_rule(int j, bool shaft_known) {
     const Patch& pj = s_.mesh.patches[j];
     ++k_.fixed_rule;
@@ -214,13 +213,7 @@ class RowFill {
     }
     ++k_.evaluated;
     double f = f0;
-    const TileShadow shadow = from_point_ && f0 > 0.0 ? from_point_->tile_shadow(j) : TileShadow::Unknown;
-    if (shadow == TileShadow::None) {
-      ++k_.tested, ++k_.culled;  // the patch's tile is unshadowed: f stands, without the patch's corners
-    } else if (shadow == TileShadow::Full) {
-      ++k_.tested, ++k_.occluded;  // the patch's tile is hidden: f = 0, without the patch's corners
-      f = unoccluded_[0] = 0.0;
-    } else if (from_point_ && f0 > 0.0) {
+    if (from_point_ && f0 > 0.0) {
       f = visible_from_point(j, f0);
     } else if (s_.vis && f0 > 0.0) {
       f = visible_per_point(j, f0, shaft_known);
@@ -229,19 +222,18 @@ class RowFill {
     row_[j] = f;
   }
 
-  // The one-point rule's visible factor from PointVisibility (f0: the unoccluded one).
+  // The one-point rule's visible factor from PointVisibility (f0: the unoccluded one): by the
+  // patch's tile where that settles it, else by clipping or rays (visible_factor).
   double visible_from_point(int j, double f0) {
-    const Patch& pj = s_.mesh.patches[j];
     ++k_.tested;
-    bool unshadowed = true;
     // Only rays use the pair's stream.
     const uint64_t stream = s_.rays_mode ? pair_stream(pair_stream(s_.options.seed, uint64_t(i_), uint64_t(j)), 0, 0) : 0;
-    const double v = from_point_->visible(j, source(j), pj.corner_count, pj.normal, unoccluded_[0], s_.options.rays,
-                                          stream, k_.rays, unshadowed);
-    if (unshadowed) ++k_.culled;
-    if (s_.rays_mode && !unshadowed) ray_part_[size_t(j)] = v;
-    unoccluded_[0] = v;
-    const double f = rule_[0].weight * v;
+    const PointVisibility::VisibleFactor v =
+        from_point_->visible_factor(j, unoccluded_[0], s_.options.rays, stream, k_.rays);
+    if (v.unshadowed) ++k_.culled;
+    if (s_.rays_mode && !v.unshadowed) ray_part_[size_t(j)] = v.value;
+    unoccluded_[0] = v.value;
+    const double f = rule_[0].weight * v.value;
     if (f == 0.0) ++k_.occluded;
     if (f > f0) ++k_.above;
     return f;

@@ -13,6 +13,7 @@
 #include <tuple>
 
 #include "formfactors/facing.h"
+#include "formfactors/point_factors.h"
 #include "formfactors/quadrature.h"
 #include "kernels/lambert.h"
 #include "kernels/lambert_batch.h"
@@ -96,14 +97,11 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
   long long evaluated = 0, rays = 0, tested = 0, culled = 0;
   // Every patch as one SIMD batch: a point's kernel to all patches in one call (lambert_batch.h).
   const PolygonBatch sources = patch_batch(mesh);
-  const bool rays_mode = vis && vis->method() == VisibilityMethod::Rays;
-  // Visibility from each point (visibility.h: culling by face, tile and patch; exact clipping per tile): one per thread.
-  std::vector<PointVisibility> point_visibility;
-  if (vis)
-    for (int t = 0; t < omp_get_max_threads(); ++t) point_visibility.emplace_back(*vis, mesh);
   // The facing test per group of coplanar sources (formfactors/facing.h).
   const FacingGroups facing_runs(mesh, tol);
-  const bool prefetch = mesh.prefetch_pays();
+  // The factors from each point (formfactors/point_factors.h): one per thread.
+  std::vector<PointFactors> point_factors;
+  for (int t = 0; t < omp_get_max_threads(); ++t) point_factors.emplace_back(mesh, sources, facing_runs, vis, tol, opt.rays);
   // Points at one position (split at a crease or a material change) in a row, handled by one
   // thread: the visibility from a position is computed once (PointVisibility::set_receiver).
   std::vector<int> order(size_t(np), 0), group_start;
@@ -120,53 +118,25 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
   const int groups = static_cast<int>(group_start.size()) - 1;
 #pragma omp parallel for schedule(dynamic, 16) reduction(+ : evaluated, rays, tested, culled)
   for (int g = 0; g < groups; ++g) {
+    PointFactors& factors = point_factors[size_t(omp_get_thread_num())];
+    PointFactors::Counts counts;
     for (int k = group_start[size_t(g)]; k < group_start[size_t(g) + 1]; ++k) {
       const int o = order[size_t(k)];
       const OutputPoint& x = r.points[o];
       Eigen::RowVector3d h = Eigen::RowVector3d::Zero();
-      Vec3 src[4];
       const Receiver receiver{x.position, x.normal, x.approach};
-      PointVisibility* from_point = vis ? &point_visibility[size_t(omp_get_thread_num())] : nullptr;
-      if (from_point) from_point->set_receiver(receiver);
-      using TileShadow = PointVisibility::TileShadow;
-      thread_local std::vector<Facing> facing;
-      facing.resize(size_t(mesh.size()));
-      facing_runs.classify_point(x.position, x.normal, facing.data());
-      // The kernel for the sources that face the point (0 for the others, which are skipped below).
-      thread_local std::vector<double> kernel;
-      kernel.resize(mesh.size());
-      lambert_form_factors_facing(receiver, sources, facing.data(), kernel.data());
-      for (int j = 0; j < mesh.size(); ++j) {
-        if (prefetch) mesh.prefetch(j + 16);
-        double f = kernel[j];
-        if (f == 0.0) continue;  // behind the patch, below the horizon, or edge-on: nothing to add
-        const Patch& pj = mesh.patches[j];
-        if (facing[size_t(j)] == Facing::Away ||
-            (facing[size_t(j)] == Facing::Test && point_facing_away(mesh, x.position, x.normal, j, tol)))
-          continue;
-        ++evaluated;
-        const TileShadow shadow = f > 0.0 && from_point ? from_point->tile_shadow(j) : TileShadow::Unknown;
-        if (shadow == TileShadow::None) {
-          ++tested, ++culled;  // the patch's tile is unshadowed: f stands, without the patch's corners
-        } else if (shadow == TileShadow::Full) {
-          ++tested;  // the patch's tile is hidden: nothing to add, without the patch's corners
-          continue;
-        } else if (f > 0.0 && from_point) {
-          mesh.polygon(j, src);
-          ++tested;
-          bool unshadowed = true;
-          f = from_point->visible(j, src, pj.corner_count, pj.normal, f, opt.rays,
-                                  rays_mode ? pair_stream(opt.seed ^ 0x5eedULL, uint64_t(o), uint64_t(j)) : 0, rays,
-                                  unshadowed);  // only rays use the pair's stream
-          culled += unshadowed;
-        }
-        h += f * r.radiosity.row(j);
-      }
+      // Only rays use the pair's stream.
+      auto stream_of = [&](int j) { return pair_stream(opt.seed ^ 0x5eedULL, uint64_t(o), uint64_t(j)); };
+      factors.for_each_visible(receiver, stream_of, counts, [&](int j, double f) { h += f * r.radiosity.row(j); });
       if (!direct.empty()) h += direct.at(x.position, x.normal).matrix().transpose();
       const Material& m = scene.materials[x.material];
       r.point_irradiance.row(o) = h;
       r.point_radiosity.row(o) = m.emission.matrix().transpose() + m.reflectance.matrix().transpose().cwiseProduct(h);
     }
+    evaluated += counts.evaluated;
+    tested += counts.tested;
+    culled += counts.culled;
+    rays += counts.rays;
   }
   r.summary.vertex_pairs_evaluated = evaluated;
   r.summary.vertex_rays_cast = rays;
@@ -249,28 +219,11 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
   fill_materials(scene, r);
   timer.lap("patching");
 
-  std::unique_ptr<Visibility> vis;
-  std::string reason;
-  switch (opt.visibility) {
-    case VisibilityMode::None: s.visibility_mode = "none"; s.visibility_reason = "requested (--visibility none)"; break;
-    case VisibilityMode::Rays: s.visibility_mode = "rays"; s.visibility_reason = "requested (--visibility rays)"; break;
-    case VisibilityMode::Exact: s.visibility_mode = "exact"; s.visibility_reason = "requested (--visibility exact)"; break;
-    case VisibilityMode::Auto:
-      if (scene_needs_no_visibility(scene, &reason)) { s.visibility_mode = "none"; s.visibility_reason = "auto: " + reason; }
-      else if (scene.faces.size() <= kAutoExactMaxFaces) {
-        // Few occluders per shaft: exact clipping is both exact and faster than rays (docs/performance.md).
-        s.visibility_mode = "exact";
-        s.visibility_reason = "auto: " + reason + "; " + std::to_string(scene.faces.size()) + " faces <= " +
-                              std::to_string(kAutoExactMaxFaces) + ", so exact clipping";
-      } else {
-        s.visibility_mode = "rays";
-        s.visibility_reason = "auto: " + reason + "; " + std::to_string(scene.faces.size()) + " faces > " +
-                              std::to_string(kAutoExactMaxFaces) + ", so rays";
-      }
-  }
-  if (s.visibility_mode != "none")
-    vis = std::make_unique<Visibility>(scene, s.visibility_mode == "exact" ? VisibilityMethod::Exact : VisibilityMethod::Rays);
-  s.rays = s.visibility_mode == "rays" ? opt.rays : 0;
+  const VisibilityChoice visibility = choose_visibility(scene, opt.visibility);
+  s.visibility_mode = visibility.name();
+  s.visibility_reason = visibility.reason;
+  const std::unique_ptr<Visibility> vis = make_visibility(scene, visibility);
+  s.rays = visibility.mode == VisibilityMode::Rays ? opt.rays : 0;
   timer.lap("visibility_setup");
 
   FillOptions fill;

@@ -18,14 +18,9 @@
 #include "pipeline/memory.h"
 #include "scene/scene.h"
 #include "solver/gauss_seidel.h"
+#include "visibility/choice.h"
 
 namespace photometria {
-
-// Auto: none for a convex enclosure, exact for scenes of at most kAutoExactMaxFaces faces (few
-// occluders per shaft: clipping is exact and, on the shipped rooms, 20× faster than rays at the
-// default ray count), rays beyond.
-enum class VisibilityMode { Auto, None, Rays, Exact };
-inline constexpr size_t kAutoExactMaxFaces = 256;
 
 struct SolveOptions {
   PatchingOptions patching;                  // patch size limits

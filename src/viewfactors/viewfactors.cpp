@@ -11,6 +11,8 @@
 #include <limits>
 #include <sstream>
 
+#include "formfactors/facing.h"
+#include "formfactors/point_factors.h"
 #include "kernels/lambert.h"
 #include "pipeline/memory.h"
 #include "util/error.h"
@@ -61,29 +63,11 @@ PatchViewFactors compute_view_factors(const Scene& scene, const ViewFactorOption
   r.mesh = subdivide(scene, opt.patching);
   const StorageChoice storage = check_memory(estimate_memory(r.mesh, opt.seed), r.mesh.size(),
                                              make_aggregation(scene, r.mesh, opt.level).size(), opt, r.memory);
-  // Visibility choice: the same rule as the solve (pipeline/solve.cpp, VisibilityMode::Auto).
-  std::string reason;
-  switch (opt.visibility) {
-    case VisibilityMode::None: r.visibility_mode = "none"; r.visibility_reason = "requested (--visibility none)"; break;
-    case VisibilityMode::Rays: r.visibility_mode = "rays"; r.visibility_reason = "requested (--visibility rays)"; break;
-    case VisibilityMode::Exact: r.visibility_mode = "exact"; r.visibility_reason = "requested (--visibility exact)"; break;
-    case VisibilityMode::Auto:
-      if (scene_needs_no_visibility(scene, &reason)) {
-        r.visibility_mode = "none";
-        r.visibility_reason = "auto: " + reason;
-      } else if (scene.faces.size() <= kAutoExactMaxFaces) {
-        r.visibility_mode = "exact";
-        r.visibility_reason = "auto: " + reason + "; " + std::to_string(scene.faces.size()) + " faces <= " +
-                              std::to_string(kAutoExactMaxFaces) + ", so exact clipping";
-      } else {
-        r.visibility_mode = "rays";
-        r.visibility_reason = "auto: " + reason + "; " + std::to_string(scene.faces.size()) + " faces > " +
-                              std::to_string(kAutoExactMaxFaces) + ", so rays";
-      }
-  }
-  if (r.visibility_mode != "none")
-    r.visibility = std::make_shared<const Visibility>(
-        scene, r.visibility_mode == "exact" ? VisibilityMethod::Exact : VisibilityMethod::Rays);
+  // Visibility: the same decision as the solve's (visibility/choice.h).
+  const VisibilityChoice visibility = choose_visibility(scene, opt.visibility);
+  r.visibility_mode = visibility.name();
+  r.visibility_reason = visibility.reason;
+  r.visibility = make_visibility(scene, visibility);
   FillOptions fill;
   fill.quadrature = opt.quadrature;
   fill.tolerance = opt.accuracy;
@@ -331,34 +315,19 @@ ViewFactorMatrix point_view_factors(const std::vector<SurfacePoint>& points, con
   const int np = static_cast<int>(points.size());
   ViewFactorMatrix out = ViewFactorMatrix::Zero(np, agg.size());
   const double tol = plane_tolerance(mesh);
-  // Visibility from each point (visibility.h: culling by face, tile and patch; exact clipping per tile): one per thread.
-  std::vector<PointVisibility> point_visibility;
-  if (vis)
-    for (int t = 0; t < omp_get_max_threads(); ++t) point_visibility.emplace_back(*vis, mesh);
+  // The factors from each point as the vertex gather takes them (formfactors/point_factors.h):
+  // one per thread.
+  const PolygonBatch sources = patch_batch(mesh);
+  const FacingGroups facing(mesh, tol);
+  std::vector<PointFactors> point_factors;
+  for (int t = 0; t < omp_get_max_threads(); ++t) point_factors.emplace_back(mesh, sources, facing, vis, tol, opt.rays);
 #pragma omp parallel for schedule(dynamic, 4)
   for (int o = 0; o < np; ++o) {
     const SurfacePoint& x = points[static_cast<size_t>(o)];
-    Vec3 src[4];
-    long long rays = 0;
-    PointVisibility* from_point = vis ? &point_visibility[size_t(omp_get_thread_num())] : nullptr;
-    if (from_point) from_point->set_receiver(Receiver{x.position, x.normal});
-    for (int j = 0; j < mesh.size(); ++j) {
-      const Patch& pj = mesh.patches[j];
-      // One-sided: the patch must rise above the point's plane and face the point.
-      double above = -1.0;
-      for (int k = 0; k < pj.corner_count; ++k) above = std::max(above, x.normal.dot(mesh.points[pj.corners[k]] - x.position));
-      if (above <= tol || pj.normal.dot(x.position - pj.centroid) <= tol) continue;
-      mesh.polygon(j, src);
-      const Receiver receiver{x.position, x.normal};
-      // Lambert's closed form, kernels/lambert.h (Stark 2000, eq. 3).
-      double f = lambert_form_factor(receiver, src, pj.corner_count);
-      if (f > 0.0 && from_point) {
-        bool unshadowed = true;
-        f = from_point->visible(j, src, pj.corner_count, pj.normal, f, opt.rays,
-                                pair_stream(opt.seed ^ 0x9017ULL, uint64_t(o), uint64_t(j)), rays, unshadowed);
-      }
-      out(o, agg.of_patch[j]) += f;
-    }
+    PointFactors::Counts counts;
+    auto stream_of = [&](int j) { return pair_stream(opt.seed ^ 0x9017ULL, uint64_t(o), uint64_t(j)); };
+    point_factors[size_t(omp_get_thread_num())].for_each_visible(
+        Receiver{x.position, x.normal}, stream_of, counts, [&](int j, double f) { out(o, agg.of_patch[j]) += f; });
   }
   return out;
 }

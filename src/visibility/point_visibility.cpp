@@ -387,7 +387,9 @@ struct PointVisibility::Impl {
 };
 
 PointVisibility::PointVisibility(const Visibility& vis, const PatchMesh& mesh, PointCulling culling)
-    : impl_(std::make_unique<Impl>(vis, mesh, culling)), tile_of_patch_(impl_->grouped.tile_of_patches().data()) {}
+    : mesh_(&mesh),
+      impl_(std::make_unique<Impl>(vis, mesh, culling)),
+      tile_of_patch_(impl_->grouped.tile_of_patches().data()) {}
 PointVisibility::~PointVisibility() = default;
 PointVisibility::PointVisibility(PointVisibility&&) noexcept = default;
 PointVisibility& PointVisibility::operator=(PointVisibility&&) noexcept = default;

@@ -285,9 +285,35 @@ class PointVisibility {
     return last_shadow_;
   }
 
+  // F_vis(dA_x -> P) for patch `patch`, the whole way, given `unoccluded` = F(dA_x -> P) > 0:
+  // the patch's tile first (tile_shadow: None keeps `unoccluded`, Full gives 0, both without
+  // the patch's corners), else visible() on the patch's corners. This is the step every
+  // per-point loop takes: the fill's one-point rule (formfactors.h), the vertex gather and the
+  // point view factors (formfactors/point_factors.h). rays, stream, rays_cast: as visible().
+  struct VisibleFactor {
+    double value = 0.0;       // F_vis(dA_x -> P)
+    bool unshadowed = false;  // no face shadows any of the patch: value == unoccluded
+    bool by_tile = false;     // settled by the patch's tile alone (its corners were not read)
+  };
+  VisibleFactor visible_factor(int patch, double unoccluded, int rays, uint64_t stream, long long& rays_cast) {
+    switch (tile_shadow(patch)) {
+      case TileShadow::None: return {unoccluded, true, true};
+      case TileShadow::Full: return {0.0, false, true};
+      case TileShadow::Unknown: break;
+    }
+    Vec3 corners[4];
+    mesh_->polygon(patch, corners);
+    const Patch& p = mesh_->patches[size_t(patch)];
+    VisibleFactor v;
+    v.unshadowed = true;
+    v.value = visible(patch, corners, p.corner_count, p.normal, unoccluded, rays, stream, rays_cast, v.unshadowed);
+    return v;
+  }
+
  private:
   struct Impl;
   TileShadow shadow_of_tile(int tile);  // tile_shadow's answer, worked out (tile -1: none)
+  const PatchMesh* mesh_ = nullptr;     // the mesh of the patches asked about
   std::unique_ptr<Impl> impl_;
   const int* tile_of_patch_ = nullptr;  // the culler's, in impl_ (which moves with its owner)
   int last_tile_ = -2;                  // tile_shadow's last tile (-2: none since set_receiver)
