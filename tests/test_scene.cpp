@@ -107,16 +107,6 @@ bool closed_and_oriented(const Scene& s, const std::vector<int>& faces) {
   return true;
 }
 
-// Signed volume enclosed by the faces (divergence theorem): positive when they face outward.
-double signed_volume(const Scene& s, const std::vector<int>& faces) {
-  double v = 0;
-  for (int f : faces) {
-    const Polygon p = s.face_polygon(f);
-    for (size_t i = 1; i + 1 < p.size(); ++i) v += p[0].dot(p[i].cross(p[i + 1])) / 6.0;
-  }
-  return v;
-}
-
 std::vector<int> all_faces(const Scene& s) {
   std::vector<int> f(s.faces.size());
   for (size_t i = 0; i < f.size(); ++i) f[i] = int(i);

@@ -51,15 +51,6 @@ int find(std::vector<int>& parent, int x) {
   return x;
 }
 
-double signed_volume(const Scene& s, const std::vector<int>& faces) {
-  double v = 0;
-  for (int f : faces) {
-    const Polygon p = s.face_polygon(f);
-    for (size_t i = 1; i + 1 < p.size(); ++i) v += p[0].dot(p[i].cross(p[i + 1])) / 6.0;
-  }
-  return v;
-}
-
 struct Box {
   Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity());
   Vec3 hi = Vec3::Constant(-std::numeric_limits<double>::infinity());
@@ -140,3 +131,16 @@ void fix_orientation(Scene& s, bool flip_inconsistent) {
 }
 
 }  // namespace photometria::scene_detail
+
+namespace photometria {
+
+double signed_volume(const Scene& s, const std::vector<int>& faces) {
+  double v = 0;
+  for (int f : faces) {
+    const Polygon p = s.face_polygon(f);
+    for (size_t i = 1; i + 1 < p.size(); ++i) v += p[0].dot(p[i].cross(p[i + 1])) / 6.0;
+  }
+  return v;
+}
+
+}  // namespace photometria

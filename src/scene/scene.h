@@ -95,4 +95,9 @@ struct LoadOptions {
 // that every material has 0 <= ρ < 1 and E >= 0.
 Scene load_scene(const std::string& path, const LoadOptions& options = {});
 
+// Signed volume (m³) enclosed by the given faces of `scene` (divergence theorem, summing the
+// tetrahedra of each face's fan with the origin): positive when the faces of a closed surface
+// face outward, negative when inward. Loading uses it to tell an enclosure's orientation.
+double signed_volume(const Scene& scene, const std::vector<int>& faces);
+
 }  // namespace photometria
