@@ -1,6 +1,8 @@
 // `photometria bench [--quick] [--csv FILE] [--threads T] [--json]`: the speed benchmark
 // (validation/bench.h). Parses, runs, prints: a table on stdout (or one JSON object per row
 // with --json), progress and skipped cases on stderr.
+#include <unistd.h>
+
 #include <cmath>
 #include <iomanip>
 #include <iostream>
@@ -12,6 +14,7 @@
 #include "io/atomic_file.h"
 #include "pipeline/memory.h"
 #include "util/error.h"
+#include "util/progress.h"
 #include "validation/bench.h"
 
 namespace pm = photometria;
@@ -94,8 +97,15 @@ int run_bench(const BenchArgs& a) {
   std::optional<pm::AtomicOutput> csv;
   if (!a.csv.empty()) csv.emplace(a.csv);
   if (!a.json) print_header();
-  opt.on_start = [](const std::string& label) { std::cerr << "bench: " << label << "...\n" << std::flush; };
-  opt.on_row = [&a](const pv::BenchRow& r) {
+  // Each case's progress and time left on stderr: a bar on a terminal, a line every 5 s elsewhere.
+  pm::ProgressReporter progress(std::cerr, isatty(STDERR_FILENO));
+  opt.progress = progress.callback();
+  opt.on_start = [&progress](const std::string& label) {
+    progress.clear();
+    std::cerr << "bench: " << label << "...\n" << std::flush;
+  };
+  opt.on_row = [&a, &progress](const pv::BenchRow& r) {
+    progress.clear();
     if (!r.skipped.empty())
       std::cerr << "bench: skipped " << r.scene << " " << r.setting << " " << r.task << ": " << r.skipped << "\n";
     if (a.json) std::cout << pv::bench_json(r).dump() << "\n" << std::flush;

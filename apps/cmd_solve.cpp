@@ -16,6 +16,7 @@
 #include "pipeline/solve.h"
 #include "scene/scene.h"
 #include "util/error.h"
+#include "util/progress.h"
 
 namespace pm = photometria;
 
@@ -118,14 +119,12 @@ int run_solve(const SolveArgs& a) {
   opt.matrix_layout = pm::parse_layout(a.matrix);
   opt.matrix_precision = pm::parse_precision(a.matrix_precision);
   opt.seed = a.seed;
-  if (!a.quiet && isatty(STDERR_FILENO)) {
-    opt.progress = [](const std::string& stage, double f) {
-      std::cerr << "\r  " << stage << " " << static_cast<int>(100 * f) << "%   " << std::flush;
-      if (f >= 1.0) std::cerr << "\r" << std::string(40, ' ') << "\r";
-    };
-  }
+  // Progress and the time left on stderr: a bar on a terminal, a line every 5 s elsewhere.
+  pm::ProgressReporter progress(std::cerr, isatty(STDERR_FILENO));
+  if (!a.quiet) opt.progress = progress.callback();
 
   pm::SolveResult result = pm::solve_scene(scene, opt);
+  progress.clear();
   const auto t0 = std::chrono::steady_clock::now();
   pm::write_vtu(out, pm::result_grid(scene, result));
   out.commit();

@@ -372,6 +372,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
     const int done = ++rows_done;
     if (options.progress && omp_get_thread_num() == 0) options.progress(double(done) / n);
   }
+  if (options.progress) options.progress(1.0);
   if (mirror) {
     std::vector<double> areas(n);
     for (int i = 0; i < n; ++i) areas[i] = mesh.patches[i].area;

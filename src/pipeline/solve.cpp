@@ -4,6 +4,7 @@
 #include <sys/resource.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <iomanip>
 #include <cmath>
@@ -116,6 +117,7 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
       group_start.push_back(k);
   group_start.push_back(np);
   const int groups = static_cast<int>(group_start.size()) - 1;
+  std::atomic<int> groups_done{0};
 #pragma omp parallel for schedule(dynamic, 16) reduction(+ : evaluated, rays, tested, culled)
   for (int g = 0; g < groups; ++g) {
     PointFactors& factors = point_factors[size_t(omp_get_thread_num())];
@@ -137,7 +139,10 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
     tested += counts.tested;
     culled += counts.culled;
     rays += counts.rays;
+    const int done = ++groups_done;
+    if (opt.progress && omp_get_thread_num() == 0) opt.progress("vertex gather", double(done) / groups);
   }
+  if (opt.progress) opt.progress("vertex gather", 1.0);
   r.summary.vertex_pairs_evaluated = evaluated;
   r.summary.vertex_rays_cast = rays;
   r.summary.vertex_pairs_tested = tested;

@@ -41,7 +41,9 @@ struct SolveOptions {
   // unless only float fits the memory limit (the summary says so).
   MatrixLayout matrix_layout = MatrixLayout::Auto;
   MatrixPrecision matrix_precision = MatrixPrecision::Auto;
-  std::function<void(const std::string& stage, double fraction)> progress;  // optional
+  // Optional: called with a stage ("form factors", "vertex gather") and its fraction done (0..1,
+  // ending with 1), from one thread at a time (util/progress.h shows it).
+  std::function<void(const std::string& stage, double fraction)> progress;
 };
 
 struct EnergyBalance {

@@ -119,11 +119,17 @@ void mark_skipped(BenchRow& row, const std::string& why, int threads) {
 // Runs case `c` (started at `start`) and fills the measured fields of `row`.
 void measure(const Case& c, const BenchOptions& opt, BenchRow& row, std::chrono::steady_clock::time_point start) {
   const bool closed = c.scene == "cube";
+  std::function<void(const std::string&, double)> progress;
+  if (opt.progress) {
+    const std::string label = c.scene + " " + c.setting + " " + c.task + ": ";
+    progress = [&opt, label](const std::string& stage, double f) { opt.progress(label + stage, f); };
+  }
   if (c.task == "solve") {
     SolveOptions so;
     so.patching = c.patching;
     so.threads = opt.threads;
     so.max_memory_bytes = opt.max_memory_bytes;
+    so.progress = progress;
     const SolveResult r = solve_scene(*c.geometry, so);
     row.total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     const SolveSummary& s = r.summary;
@@ -149,6 +155,7 @@ void measure(const Case& c, const BenchOptions& opt, BenchRow& row, std::chrono:
     vo.patching = c.patching;
     vo.level = AggregateLevel::Face;  // for the memory estimate: no N × N aggregated copy follows
     vo.max_memory_bytes = opt.max_memory_bytes;
+    vo.progress = progress;
     const PatchViewFactors v = compute_view_factors(*c.geometry, vo);
     row.total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     row.visibility = v.visibility_mode;

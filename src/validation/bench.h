@@ -106,6 +106,9 @@ struct BenchOptions {
                                   // e.g. "cube n=32 solve", "room edge=0.112 m solve"
   std::function<void(const std::string& label)> on_start;  // before each case ("cube n=8 solve")
   std::function<void(const BenchRow&)> on_row;              // after each case (also skipped ones)
+  // Optional: a case's stages ("<label>: form factors", ...) and their fraction done, as
+  // SolveOptions::progress.
+  std::function<void(const std::string& stage, double fraction)> progress;
 };
 
 // Runs every case in order. Solver failures propagate (photometria::Error); a case that would

@@ -72,6 +72,7 @@ PatchViewFactors compute_view_factors(const Scene& scene, const ViewFactorOption
   fill.quadrature = opt.quadrature;
   fill.tolerance = opt.accuracy;
   fill.visibility = r.visibility.get();
+  if (opt.progress) fill.progress = [&opt](double f) { opt.progress("form factors", f); };
   fill.rays = opt.rays;
   fill.seed = opt.seed;
   fill.layout = storage.layout;

@@ -12,6 +12,8 @@
 // (Modest, "Radiative Heat Transfer", 3rd ed., 2013, eq. 4.19 / Howell's catalog rule for
 // composite surfaces). It keeps reciprocity (A_I F_IJ = A_J F_JI) and row sums exactly.
 #pragma once
+
+#include <functional>
 #include <Eigen/Core>
 #include <memory>
 #include <string>
@@ -37,6 +39,9 @@ struct ViewFactorOptions {
   int rays = 576;                     // rays per (receiver point, patch) in ray mode
   uint64_t seed = 1;
   int threads = 0;                    // OpenMP threads for the fill; 0 = all cores
+  // Optional: called with the stage ("form factors") and its fraction done, from one thread at
+  // a time (util/progress.h shows it).
+  std::function<void(const std::string& stage, double fraction)> progress;
   // Storage of the patch-level matrix (formfactors/storage.h), chosen as `solve` does
   // (pipeline/memory.h choose_storage): layout Auto picks dense or sparse from the estimated
   // share of facing pairs; precision Auto is double unless only float fits the memory limit.
