@@ -37,31 +37,26 @@ std::vector<double> view3d_emissivities_of(const std::string& path, const Scene&
 ViewFactorJobResult run_view_factor_job(const ViewFactorJob& job) {
   const auto t0 = std::chrono::steady_clock::now();
   ViewFactorJobResult res;
-  res.scene = job.scene;
-  res.output = job.output;
-  res.level = job.level;
-  res.format = job.format;
-  res.enforcement = job.enforcement;
-  res.threshold = job.threshold;
-  ViewFactorOptions opt = job.fill;
+  res.job = job;
+  res.job.on_load_warning = nullptr;  // the result does not keep the caller's callback alive
+  ViewFactorOptions& opt = res.job.fill;
   opt.level = job.level;
   opt.enforcement = job.enforcement != Enforcement::None;
-  res.accuracy = opt.accuracy;
-  res.quadrature = opt.quadrature;
+  res.job.points_output =
+      job.points.empty() ? std::string() : job.points_output.empty() ? job.output + ".points.csv" : job.points_output;
+  const std::string& points_path = res.job.points_output;
 
   // Every output is opened (its temporary file created) before the long work, so that an
   // unwritable path fails in a second, and committed only when all of them were written, so
   // that a failed run leaves none (io/atomic_file.h).
-  res.points_output =
-      job.points.empty() ? std::string() : job.points_output.empty() ? job.output + ".points.csv" : job.points_output;
-  if (!res.points_output.empty()) {
+  if (!points_path.empty()) {
     namespace fs = std::filesystem;
-    if (fs::absolute(res.points_output).lexically_normal() == fs::absolute(job.output).lexically_normal())
-      throw_bad_input("--points-output: '" + res.points_output + "' is also the -o output");
+    if (fs::absolute(points_path).lexically_normal() == fs::absolute(job.output).lexically_normal())
+      throw_bad_input("--points-output: '" + points_path + "' is also the -o output");
   }
   AtomicOutput main_out(job.output);
   std::optional<AtomicOutput> points_out;
-  if (!res.points_output.empty()) points_out.emplace(res.points_output);
+  if (!points_path.empty()) points_out.emplace(points_path);
 
   LoadOptions lo;
   lo.flip_normals = job.flip_normals;
@@ -72,7 +67,6 @@ ViewFactorJobResult run_view_factor_job(const ViewFactorJob& job) {
   std::vector<SurfacePoint> points;
   if (!job.points.empty()) points = load_points(job.points);
   opt.points = static_cast<int>(points.size());
-  res.points = opt.points;
 
   const PatchViewFactors r = compute_view_factors(scene, opt);
   const Aggregation agg = make_aggregation(scene, r.mesh, job.level);

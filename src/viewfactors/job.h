@@ -2,8 +2,9 @@
 // checked matrix -> output files, with the figures of its summary (viewfactors/report.h).
 //
 // run_view_factor_job() does, in this order:
-//   1. opens every output (io/atomic_file.h: creates its temporary file), so that an unwritable
-//      path fails in a second, before the long work;
+//   1. refuses a points_output that is the output itself, then opens every output
+//      (io/atomic_file.h: creates its temporary file), so that an unwritable path fails in a
+//      second, before the long work;
 //   2. loads the scene (warnings go to ViewFactorJob::on_load_warning) and the points file, so
 //      that a bad points file fails before the fill;
 //   3. compute_view_factors(), make_aggregation(), aggregate(), enforce() when asked,
@@ -30,8 +31,9 @@ struct ViewFactorJob {
   bool flip_normals = false;                   // reverse every face on load (inside-out exports)
   std::string output;                          // the matrix file (-o); required
   AggregateLevel level = AggregateLevel::Group;  // rows/columns: groups, input faces or patches
-  ViewFactorFormat format = ViewFactorFormat::Csv;
-  double threshold = 0.0;                      // Sparse only: entries below it are not written
+  ViewFactorFormat format = ViewFactorFormat::Csv;  // the file's layout (io/viewfactor_output.h);
+                                               // View3d from a .vs3 input copies its emissivities
+  double threshold = 0.0;                      // Sparse only: factors below it (in [0, 1]) are not written
   Enforcement enforcement = Enforcement::None; // applied to the aggregated matrix before writing;
                                                // Closure and Both also set View3D's `encl` flag
   std::string points;                          // points file (.json or .csv, load_points); empty: none
@@ -47,16 +49,9 @@ struct ViewFactorJob {
 
 // What was done: everything the summary reports.
 struct ViewFactorJobResult {
-  // The job as run.
-  std::string scene, output;
-  AggregateLevel level = AggregateLevel::Group;
-  ViewFactorFormat format = ViewFactorFormat::Csv;
-  Enforcement enforcement = Enforcement::None;
-  double threshold = 0.0;
-  double accuracy = 0.0;                // per-pair relative tolerance used by the fill
-  int quadrature = 0;                   // receiver rule order for pairs needing visibility
-  std::string points_output;            // resolved path of the point factors; empty without points
-  int points = 0;                       // points read (rows of the point factors)
+  // The job as run: points_output resolved (empty without points), fill.level, fill.enforcement
+  // and fill.points (the number of points read) as used, on_load_warning cleared.
+  ViewFactorJob job;
 
   // Sizes.
   int faces = 0;                        // faces of the loaded (cleaned) scene
@@ -65,7 +60,7 @@ struct ViewFactorJobResult {
   std::vector<double> areas;            // their areas, m²
   int surfaces() const { return static_cast<int>(names.size()); }
 
-  // The written matrix (G × G, after enforcement) and its checks.
+  // The written matrix (G × G, row I = from surface I, after enforcement) and its checks.
   ViewFactorMatrix F;
   MatrixChecks checks;
   EnforcementReport enforcement_report; // all zero when enforcement is None

@@ -23,15 +23,16 @@ nlohmann::json checks_json(const MatrixChecks& c, const std::vector<std::string>
 }  // namespace
 
 nlohmann::json viewfactor_summary_json(const ViewFactorJobResult& r) {
+  const ViewFactorJob& job = r.job;
   nlohmann::json j;
-  j["scene"] = r.scene;
-  j["output"] = r.output;
-  j["format"] = view_factor_format_name(r.format);
-  j["level"] = aggregate_level_name(r.level);
+  j["scene"] = job.scene;
+  j["output"] = job.output;
+  j["format"] = view_factor_format_name(job.format);
+  j["level"] = aggregate_level_name(job.level);
   j["surfaces"] = r.surfaces();
   j["patches"] = r.patches;
   j["faces"] = r.faces;
-  j["accuracy"] = r.accuracy;
+  j["accuracy"] = job.fill.accuracy;
   j["visibility"] = r.visibility_mode;
   j["visibility_reason"] = r.visibility_reason;
   j["checks"] = checks_json(r.checks, r.names);
@@ -45,35 +46,36 @@ nlohmann::json viewfactor_summary_json(const ViewFactorJobResult& r) {
   j["pairs"] = {{"evaluated", r.fill.pairs_evaluated},     {"backfacing", r.fill.pairs_backfacing},
                 {"per_pair_gauss", r.fill.pairs_gauss},     {"per_pair_adaptive", r.fill.pairs_adaptive},
                 {"exact_rectangles", r.fill.pairs_exact_rectangles},
-                {"fixed_rule", r.fill.pairs_fixed_rule},     {"fixed_rule_order", r.quadrature},
+                {"fixed_rule", r.fill.pairs_fixed_rule},     {"fixed_rule_order", job.fill.quadrature},
                 {"visibility_tested", r.fill.pairs_tested}, {"visibility_culled", r.fill.pairs_culled},
                 {"occluded", r.fill.pairs_occluded},         {"rays_cast", r.fill.rays_cast},
                 {"kernel_evaluations", r.fill.kernel_evaluations}};
-  j["enforce"] = enforcement_name(r.enforcement);
+  j["enforce"] = enforcement_name(job.enforcement);
   const EnforcementReport& rep = r.enforcement_report;
-  if (r.enforcement != Enforcement::None)
+  if (job.enforcement != Enforcement::None)
     j["enforcement"] = {{"before", checks_json(rep.before, r.names)},
                         {"after", checks_json(rep.after, r.names)},
                         {"iterations", rep.iterations},
                         {"max_change", rep.max_change}};
   const SparseWriteStats& ws = r.sparse;
-  if (r.format == ViewFactorFormat::Sparse)
-    j["sparse"] = {{"threshold", r.threshold},           {"written", ws.written},
+  if (job.format == ViewFactorFormat::Sparse)
+    j["sparse"] = {{"threshold", job.threshold},           {"written", ws.written},
                    {"dropped", ws.dropped},               {"dropped_row_sum_max", ws.max_dropped_row_sum},
                    {"dropped_worst_row", ws.worst_row},   {"dropped_total", ws.total_dropped}};
-  if (!r.points_output.empty()) j["points"] = {{"count", r.points}, {"output", r.points_output}};
+  if (!job.points_output.empty()) j["points"] = {{"count", job.fill.points}, {"output", job.points_output}};
   j["seconds"] = r.seconds;
   j["peak_memory_bytes"] = peak_memory_bytes();
   return j;
 }
 
 std::string viewfactor_summary_text(const ViewFactorJobResult& r) {
+  const ViewFactorJob& job = r.job;
   const MatrixChecks& checks = r.checks;
   const ViewFactorMemory& m = r.memory;
   const FillStats& fill = r.fill;
   std::ostringstream o;
-  o << "view factors: " << r.surfaces() << " " << aggregate_level_name(r.level) << "s from " << r.patches
-    << " patches -> " << r.output << " (" << view_factor_format_name(r.format) << ")\n"
+  o << "view factors: " << r.surfaces() << " " << aggregate_level_name(job.level) << "s from " << r.patches
+    << " patches -> " << job.output << " (" << view_factor_format_name(job.format) << ")\n"
     << "  visibility: " << r.visibility_mode << " (" << r.visibility_reason << ")\n"
     << "  row sums: min " << checks.min_row_sum << ", max " << checks.max_row_sum << ", mean " << checks.mean_row_sum
     << "; worst row " << checks.worst_row << " (" << r.names[static_cast<size_t>(checks.worst_row)] << ")\n"
@@ -84,20 +86,20 @@ std::string viewfactor_summary_text(const ViewFactorJobResult& r) {
     << m.limit_source << ")\n"
     << "  pairs: " << fill.pairs_gauss << " per-pair Gauss, " << fill.pairs_adaptive << " adaptive, "
     << fill.pairs_exact_rectangles << " exact rectangles, " << fill.pairs_fixed_rule << " fixed order "
-    << r.quadrature << " (visibility), " << fill.pairs_backfacing << " facing away; " << fill.pairs_tested
+    << job.fill.quadrature << " (visibility), " << fill.pairs_backfacing << " facing away; " << fill.pairs_tested
     << " shaft-tested, " << fill.pairs_culled << " culled, " << fill.pairs_occluded << " fully occluded, "
     << fill.rays_cast << " rays\n";
   const EnforcementReport& rep = r.enforcement_report;
-  if (r.enforcement != Enforcement::None)
-    o << "  enforcement " << enforcement_name(r.enforcement) << ": reciprocity error " << rep.before.reciprocity_error
+  if (job.enforcement != Enforcement::None)
+    o << "  enforcement " << enforcement_name(job.enforcement) << ": reciprocity error " << rep.before.reciprocity_error
       << " -> " << rep.after.reciprocity_error << ", row sums [" << rep.before.min_row_sum << ", "
       << rep.before.max_row_sum << "] -> [" << rep.after.min_row_sum << ", " << rep.after.max_row_sum
       << "], max change " << rep.max_change << "\n";
   const SparseWriteStats& ws = r.sparse;
-  if (r.format == ViewFactorFormat::Sparse)
-    o << "  sparse: " << ws.written << " entries written, " << ws.dropped << " below " << r.threshold
+  if (job.format == ViewFactorFormat::Sparse)
+    o << "  sparse: " << ws.written << " entries written, " << ws.dropped << " below " << job.threshold
       << " dropped; largest dropped row sum " << ws.max_dropped_row_sum << " (row " << ws.worst_row << ")\n";
-  if (!r.points_output.empty()) o << "  point factors: " << r.points << " points -> " << r.points_output << "\n";
+  if (!job.points_output.empty()) o << "  point factors: " << job.fill.points << " points -> " << job.points_output << "\n";
   o << "  time " << r.seconds << " s, peak memory " << peak_memory_bytes() / 1048576.0 << " MiB\n";
   return o.str();
 }
