@@ -41,13 +41,24 @@ bool little_endian() {
 
 }  // namespace
 
+std::string view_factor_format_name(ViewFactorFormat format) {
+  switch (format) {
+    case ViewFactorFormat::Csv: return "csv";
+    case ViewFactorFormat::Sparse: return "sparse";
+    case ViewFactorFormat::Binary: return "binary";
+    case ViewFactorFormat::View3d: return "view3d";
+  }
+  return "?";
+}
+
 bool view_factor_format_from_name(const std::string& name, ViewFactorFormat& out) {
-  if (name == "csv") out = ViewFactorFormat::Csv;
-  else if (name == "sparse") out = ViewFactorFormat::Sparse;
-  else if (name == "binary") out = ViewFactorFormat::Binary;
-  else if (name == "view3d") out = ViewFactorFormat::View3d;
-  else return false;
-  return true;
+  for (ViewFactorFormat format :
+       {ViewFactorFormat::Csv, ViewFactorFormat::Sparse, ViewFactorFormat::Binary, ViewFactorFormat::View3d})
+    if (name == view_factor_format_name(format)) {
+      out = format;
+      return true;
+    }
+  return false;
 }
 
 SparseWriteStats write_view_factors(AtomicOutput& atomic, ViewFactorFormat format,

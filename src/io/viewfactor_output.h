@@ -66,7 +66,9 @@ SparseWriteStats write_view_factors(AtomicOutput& out, ViewFactorFormat format,
 void write_point_factors(AtomicOutput& out, const std::vector<std::string>& point_ids,
                          const std::vector<std::string>& surface_names, const ViewFactorRows& P);
 
-// "csv", "sparse", "binary", "view3d"; false when unknown.
+// "csv", "sparse", "binary", "view3d" (the names of `viewfactors --format`).
+std::string view_factor_format_name(ViewFactorFormat format);
+// The format named `name` (as view_factor_format_name) into `out`; false when unknown.
 bool view_factor_format_from_name(const std::string& name, ViewFactorFormat& out);
 
 }  // namespace photometria

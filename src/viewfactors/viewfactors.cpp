@@ -81,6 +81,24 @@ PatchViewFactors compute_view_factors(const Scene& scene, const ViewFactorOption
   return r;
 }
 
+std::string aggregate_level_name(AggregateLevel level) {
+  switch (level) {
+    case AggregateLevel::Group: return "group";
+    case AggregateLevel::Face: return "face";
+    case AggregateLevel::Patch: return "patch";
+  }
+  return "?";
+}
+
+bool aggregate_level_from_name(const std::string& name, AggregateLevel& out) {
+  for (AggregateLevel level : {AggregateLevel::Group, AggregateLevel::Face, AggregateLevel::Patch})
+    if (name == aggregate_level_name(level)) {
+      out = level;
+      return true;
+    }
+  return false;
+}
+
 Aggregation make_aggregation(const Scene& scene, const PatchMesh& mesh, AggregateLevel level) {
   Aggregation a;
   const int n = mesh.size();
@@ -145,6 +163,25 @@ MatrixChecks check_matrix(const ViewFactorMatrix& F, const std::vector<double>& 
   }
   c.mean_row_sum = total / n;
   return c;
+}
+
+std::string enforcement_name(Enforcement mode) {
+  switch (mode) {
+    case Enforcement::None: return "none";
+    case Enforcement::Reciprocity: return "reciprocity";
+    case Enforcement::Closure: return "closure";
+    case Enforcement::Both: return "both";
+  }
+  return "?";
+}
+
+bool enforcement_from_name(const std::string& name, Enforcement& out) {
+  for (Enforcement mode : {Enforcement::None, Enforcement::Reciprocity, Enforcement::Closure, Enforcement::Both})
+    if (name == enforcement_name(mode)) {
+      out = mode;
+      return true;
+    }
+  return false;
 }
 
 EnforcementReport enforce(ViewFactorMatrix& F, const std::vector<double>& areas, Enforcement mode, double tolerance,

@@ -30,6 +30,10 @@ namespace photometria {
 using ViewFactorMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
 enum class AggregateLevel { Group, Face, Patch };
+// "group", "face", "patch" (the names of `viewfactors --by`).
+std::string aggregate_level_name(AggregateLevel level);
+// The level named `name` (as aggregate_level_name) into `out`; false when unknown.
+bool aggregate_level_from_name(const std::string& name, AggregateLevel& out);
 
 struct ViewFactorOptions {
   PatchingOptions patching;           // default: no subdivision beyond the input faces
@@ -110,6 +114,10 @@ struct MatrixChecks {
 MatrixChecks check_matrix(const ViewFactorMatrix& F, const std::vector<double>& areas);
 
 enum class Enforcement { None, Reciprocity, Closure, Both };
+// "none", "reciprocity", "closure", "both" (the names of `viewfactors --enforce`).
+std::string enforcement_name(Enforcement mode);
+// The mode named `name` (as enforcement_name) into `out`; false when unknown.
+bool enforcement_from_name(const std::string& name, Enforcement& out);
 
 struct EnforcementReport {
   MatrixChecks before, after;

@@ -1,0 +1,112 @@
+// The `photometria viewfactors` job (job.h).
+#include "viewfactors/job.h"
+
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <optional>
+
+#include "io/atomic_file.h"
+#include "scene/scene.h"
+#include "util/error.h"
+
+namespace photometria {
+namespace {
+
+// Per output surface, the emissivity of its View3D surface when the input is a .vs3 file (the
+// last line of View3D's output); empty otherwise (the writer then puts 1.000).
+std::vector<double> view3d_emissivities_of(const std::string& path, const Scene& scene, const PatchMesh& mesh,
+                                           const Aggregation& agg) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (ext != ".vs3") return {};
+  const std::vector<double> by_surface = view3d_emissivities(path);
+  std::vector<double> out(static_cast<size_t>(agg.size()), 1.0);
+  for (int i = 0; i < mesh.size(); ++i) {
+    const int source = scene.faces[static_cast<size_t>(mesh.patches[i].face)].source_face;
+    if (source >= 0 && source < static_cast<int>(by_surface.size()))
+      out[static_cast<size_t>(agg.of_patch[i])] = by_surface[static_cast<size_t>(source)];
+  }
+  return out;
+}
+
+}  // namespace
+
+ViewFactorJobResult run_view_factor_job(const ViewFactorJob& job) {
+  const auto t0 = std::chrono::steady_clock::now();
+  ViewFactorJobResult res;
+  res.job = job;
+  res.job.on_load_warning = nullptr;  // the result does not keep the caller's callback alive
+  ViewFactorOptions& opt = res.job.fill;
+  opt.level = job.level;
+  opt.enforcement = job.enforcement != Enforcement::None;
+  res.job.points_output =
+      job.points.empty() ? std::string() : job.points_output.empty() ? job.output + ".points.csv" : job.points_output;
+  const std::string& points_path = res.job.points_output;
+
+  // Every output is opened (its temporary file created) before the long work, so that an
+  // unwritable path fails in a second, and committed only when all of them were written, so
+  // that a failed run leaves none (io/atomic_file.h).
+  if (!points_path.empty()) {
+    namespace fs = std::filesystem;
+    if (fs::absolute(points_path).lexically_normal() == fs::absolute(job.output).lexically_normal())
+      throw_bad_input("--points-output: '" + points_path + "' is also the -o output");
+  }
+  AtomicOutput main_out(job.output);
+  std::optional<AtomicOutput> points_out;
+  if (!points_path.empty()) points_out.emplace(points_path);
+
+  LoadOptions lo;
+  lo.flip_normals = job.flip_normals;
+  const Scene scene = load_scene(job.scene, lo);
+  if (job.on_load_warning)
+    for (const std::string& w : load_warnings(scene.stats)) job.on_load_warning(scene.source, w);
+  // Points are read before the (long) fill so that a bad file fails fast.
+  std::vector<SurfacePoint> points;
+  if (!job.points.empty()) points = load_points(job.points);
+  opt.points = static_cast<int>(points.size());
+
+  const PatchViewFactors r = compute_view_factors(scene, opt);
+  const Aggregation agg = make_aggregation(scene, r.mesh, job.level);
+  res.F = aggregate(r.F, r.mesh, agg);
+  if (job.enforcement != Enforcement::None) res.enforcement_report = enforce(res.F, agg.areas, job.enforcement);
+  res.checks = check_matrix(res.F, agg.areas);
+  View3dOutput v3;
+  if (job.format == ViewFactorFormat::View3d) {
+    v3.enclosure = job.enforcement == Enforcement::Closure || job.enforcement == Enforcement::Both ? 1 : 0;
+    v3.emissivities = view3d_emissivities_of(job.scene, scene, r.mesh, agg);
+  }
+  res.sparse = write_view_factors(main_out, job.format, agg.names, agg.areas, res.F, job.threshold, v3);
+  if (points_out) {
+    const ViewFactorMatrix P = point_view_factors(points, r.mesh, agg, r.visibility.get(), opt);
+    std::vector<std::string> ids;
+    for (const SurfacePoint& p : points) ids.push_back(p.id);
+    write_point_factors(*points_out, ids, agg.names, P);
+  }
+  main_out.commit();
+  if (points_out) {
+    try {
+      points_out->commit();
+    } catch (...) {
+      std::remove(main_out.target().c_str());  // all or nothing
+      throw;
+    }
+  }
+
+  res.faces = static_cast<int>(scene.faces.size());
+  res.patches = r.mesh.size();
+  res.names = agg.names;
+  res.areas = agg.areas;
+  res.visibility_mode = r.visibility_mode;
+  res.visibility_reason = r.visibility_reason;
+  res.matrix_storage = r.F.description();
+  res.matrix_bytes = r.F.bytes();
+  res.memory = r.memory;
+  res.fill = r.fill;
+  res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return res;
+}
+
+}  // namespace photometria

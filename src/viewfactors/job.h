@@ -1,0 +1,86 @@
+// The `photometria viewfactors` job: scene -> patch view factors -> aggregated, enforced and
+// checked matrix -> output files, with the figures of its summary (viewfactors/report.h).
+//
+// run_view_factor_job() does, in this order:
+//   1. refuses a points_output that is the output itself, then opens every output
+//      (io/atomic_file.h: creates its temporary file), so that an unwritable path fails in a
+//      second, before the long work;
+//   2. loads the scene (warnings go to ViewFactorJob::on_load_warning) and the points file, so
+//      that a bad points file fails before the fill;
+//   3. compute_view_factors(), make_aggregation(), aggregate(), enforce() when asked,
+//      check_matrix() (viewfactors/viewfactors.h);
+//   4. writes the matrix (io/viewfactor_output.h) and, with points, the point factors;
+//   5. commits the outputs all or nothing: the matrix first, then the point factors; when the
+//      point factors fail to commit, the committed matrix is removed again.
+// It prints nothing.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "formfactors/formfactors.h"
+#include "io/viewfactor_output.h"
+#include "viewfactors/viewfactors.h"
+
+namespace photometria {
+
+// What to compute and where to write it: the resolved options of `photometria viewfactors`.
+struct ViewFactorJob {
+  std::string scene;                           // input: mesh, View3D .vs3 or scene .json file
+  bool flip_normals = false;                   // reverse every face on load (inside-out exports)
+  std::string output;                          // the matrix file (-o); required
+  AggregateLevel level = AggregateLevel::Group;  // rows/columns: groups, input faces or patches
+  ViewFactorFormat format = ViewFactorFormat::Csv;  // the file's layout (io/viewfactor_output.h);
+                                               // View3d from a .vs3 input copies its emissivities
+  double threshold = 0.0;                      // Sparse only: factors below it (in [0, 1]) are not written
+  Enforcement enforcement = Enforcement::None; // applied to the aggregated matrix before writing;
+                                               // Closure and Both also set View3D's `encl` flag
+  std::string points;                          // points file (.json or .csv, load_points); empty: none
+  std::string points_output;                   // where the point factors go; empty: output + ".points.csv"
+  // The fill: patching (default: one patch per input face), accuracy (default 1e-7), visibility,
+  // rays, threads, storage, memory limit. Its `level`, `enforcement` and `points` are set by the
+  // job from the fields above (they size the memory estimate), whatever they hold here.
+  ViewFactorOptions fill;
+  // Called once per load warning (scene/scene.h load_warnings), with the loaded scene's source
+  // path, right after the load (so before any later error). Optional.
+  std::function<void(const std::string& scene_source, const std::string& warning)> on_load_warning;
+};
+
+// What was done: everything the summary reports.
+struct ViewFactorJobResult {
+  // The job as run: points_output resolved (empty without points), fill.level, fill.enforcement
+  // and fill.points (the number of points read) as used, on_load_warning cleared.
+  ViewFactorJob job;
+
+  // Sizes.
+  int faces = 0;                        // faces of the loaded (cleaned) scene
+  int patches = 0;                      // N, patches of the fill
+  std::vector<std::string> names;       // the G output surfaces (Aggregation::names)
+  std::vector<double> areas;            // their areas, m²
+  int surfaces() const { return static_cast<int>(names.size()); }
+
+  // The written matrix (G × G, row I = from surface I, after enforcement) and its checks.
+  ViewFactorMatrix F;
+  MatrixChecks checks;
+  EnforcementReport enforcement_report; // all zero when enforcement is None
+  SparseWriteStats sparse;              // drop statistics; all zero unless format is Sparse
+
+  // The fill.
+  std::string visibility_mode;          // "none", "exact" or "rays"
+  std::string visibility_reason;        // why that mode was chosen
+  std::string matrix_storage;           // patch matrix storage used: "dense double", "sparse float", ...
+  double matrix_bytes = 0.0;            // bytes held by the patch matrix
+  ViewFactorMemory memory;              // the estimate checked before the fill, and the limit
+  FillStats fill;                       // pair counts, rays, kernel evaluations
+
+  double seconds = 0.0;                 // wall time of the whole job, s
+};
+
+// Throws photometria::Error: Io when an output cannot be written or an input cannot be opened;
+// BadInput when points_output is the output file, the scene or the points file is malformed,
+// the scene has no patch or the memory estimate exceeds the limit (compute_view_factors).
+// Whatever is thrown, no output file is left (and no temporary file).
+ViewFactorJobResult run_view_factor_job(const ViewFactorJob& job);
+
+}  // namespace photometria

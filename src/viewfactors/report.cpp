@@ -1,0 +1,107 @@
+// The summary of a view-factor job (report.h).
+#include "viewfactors/report.h"
+
+#include <sstream>
+
+#include "pipeline/memory.h"
+#include "pipeline/solve.h"
+
+namespace photometria {
+namespace {
+
+nlohmann::json checks_json(const MatrixChecks& c, const std::vector<std::string>& names) {
+  return {{"row_sum_min", c.min_row_sum},
+          {"row_sum_max", c.max_row_sum},
+          {"row_sum_mean", c.mean_row_sum},
+          {"worst_row", c.worst_row},
+          {"worst_row_name", names.empty() ? "" : names[static_cast<size_t>(c.worst_row)]},
+          {"reciprocity_error_max", c.reciprocity_error},
+          {"min_entry", c.min_entry},
+          {"max_entry", c.max_entry}};
+}
+
+}  // namespace
+
+nlohmann::json viewfactor_summary_json(const ViewFactorJobResult& r) {
+  const ViewFactorJob& job = r.job;
+  nlohmann::json j;
+  j["scene"] = job.scene;
+  j["output"] = job.output;
+  j["format"] = view_factor_format_name(job.format);
+  j["level"] = aggregate_level_name(job.level);
+  j["surfaces"] = r.surfaces();
+  j["patches"] = r.patches;
+  j["faces"] = r.faces;
+  j["accuracy"] = job.fill.accuracy;
+  j["visibility"] = r.visibility_mode;
+  j["visibility_reason"] = r.visibility_reason;
+  j["checks"] = checks_json(r.checks, r.names);
+  const ViewFactorMemory& m = r.memory;
+  j["matrix"] = {{"storage", r.matrix_storage}, {"reason", m.storage_reason}, {"bytes", r.matrix_bytes}};
+  j["memory_estimate"] = {{"estimated_bytes", m.estimated_bytes},   {"matrix_bytes", m.matrix_bytes},
+                          {"output_bytes", m.output_bytes},         {"per_patch_bytes", m.patches.per_patch_bytes},
+                          {"dense_bytes", m.patches.dense_bytes},   {"sparse_bytes", m.patches.sparse_bytes},
+                          {"nonzero_pairs", m.patches.nonzero_pairs}, {"limit_bytes", m.limit_bytes},
+                          {"limit_source", m.limit_source}};
+  j["pairs"] = {{"evaluated", r.fill.pairs_evaluated},     {"backfacing", r.fill.pairs_backfacing},
+                {"per_pair_gauss", r.fill.pairs_gauss},     {"per_pair_adaptive", r.fill.pairs_adaptive},
+                {"exact_rectangles", r.fill.pairs_exact_rectangles},
+                {"fixed_rule", r.fill.pairs_fixed_rule},     {"fixed_rule_order", job.fill.quadrature},
+                {"visibility_tested", r.fill.pairs_tested}, {"visibility_culled", r.fill.pairs_culled},
+                {"occluded", r.fill.pairs_occluded},         {"rays_cast", r.fill.rays_cast},
+                {"kernel_evaluations", r.fill.kernel_evaluations}};
+  j["enforce"] = enforcement_name(job.enforcement);
+  const EnforcementReport& rep = r.enforcement_report;
+  if (job.enforcement != Enforcement::None)
+    j["enforcement"] = {{"before", checks_json(rep.before, r.names)},
+                        {"after", checks_json(rep.after, r.names)},
+                        {"iterations", rep.iterations},
+                        {"max_change", rep.max_change}};
+  const SparseWriteStats& ws = r.sparse;
+  if (job.format == ViewFactorFormat::Sparse)
+    j["sparse"] = {{"threshold", job.threshold},           {"written", ws.written},
+                   {"dropped", ws.dropped},               {"dropped_row_sum_max", ws.max_dropped_row_sum},
+                   {"dropped_worst_row", ws.worst_row},   {"dropped_total", ws.total_dropped}};
+  if (!job.points_output.empty()) j["points"] = {{"count", job.fill.points}, {"output", job.points_output}};
+  j["seconds"] = r.seconds;
+  j["peak_memory_bytes"] = peak_memory_bytes();
+  return j;
+}
+
+std::string viewfactor_summary_text(const ViewFactorJobResult& r) {
+  const ViewFactorJob& job = r.job;
+  const MatrixChecks& checks = r.checks;
+  const ViewFactorMemory& m = r.memory;
+  const FillStats& fill = r.fill;
+  std::ostringstream o;
+  o << "view factors: " << r.surfaces() << " " << aggregate_level_name(job.level) << "s from " << r.patches
+    << " patches -> " << job.output << " (" << view_factor_format_name(job.format) << ")\n"
+    << "  visibility: " << r.visibility_mode << " (" << r.visibility_reason << ")\n"
+    << "  row sums: min " << checks.min_row_sum << ", max " << checks.max_row_sum << ", mean " << checks.mean_row_sum
+    << "; worst row " << checks.worst_row << " (" << r.names[static_cast<size_t>(checks.worst_row)] << ")\n"
+    << "  reciprocity error max: " << checks.reciprocity_error << "\n"
+    << "  matrix: " << r.matrix_storage << ", " << format_bytes(r.matrix_bytes) << " (" << m.storage_reason << ")\n"
+    << "  memory estimate: " << format_bytes(m.estimated_bytes) << " for this run (" << format_bytes(m.matrix_bytes)
+    << " patch matrix, " << format_bytes(m.output_bytes) << " output); limit " << format_bytes(m.limit_bytes) << " ("
+    << m.limit_source << ")\n"
+    << "  pairs: " << fill.pairs_gauss << " per-pair Gauss, " << fill.pairs_adaptive << " adaptive, "
+    << fill.pairs_exact_rectangles << " exact rectangles, " << fill.pairs_fixed_rule << " fixed order "
+    << job.fill.quadrature << " (visibility), " << fill.pairs_backfacing << " facing away; " << fill.pairs_tested
+    << " shaft-tested, " << fill.pairs_culled << " culled, " << fill.pairs_occluded << " fully occluded, "
+    << fill.rays_cast << " rays\n";
+  const EnforcementReport& rep = r.enforcement_report;
+  if (job.enforcement != Enforcement::None)
+    o << "  enforcement " << enforcement_name(job.enforcement) << ": reciprocity error " << rep.before.reciprocity_error
+      << " -> " << rep.after.reciprocity_error << ", row sums [" << rep.before.min_row_sum << ", "
+      << rep.before.max_row_sum << "] -> [" << rep.after.min_row_sum << ", " << rep.after.max_row_sum
+      << "], max change " << rep.max_change << "\n";
+  const SparseWriteStats& ws = r.sparse;
+  if (job.format == ViewFactorFormat::Sparse)
+    o << "  sparse: " << ws.written << " entries written, " << ws.dropped << " below " << job.threshold
+      << " dropped; largest dropped row sum " << ws.max_dropped_row_sum << " (row " << ws.worst_row << ")\n";
+  if (!job.points_output.empty()) o << "  point factors: " << job.fill.points << " points -> " << job.points_output << "\n";
+  o << "  time " << r.seconds << " s, peak memory " << peak_memory_bytes() / 1048576.0 << " MiB\n";
+  return o.str();
+}
+
+}  // namespace photometria

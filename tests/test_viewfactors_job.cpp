@@ -1,0 +1,262 @@
+// The view-factor job (src/viewfactors/job.h) called directly on the shipped Cornell box: the
+// result struct, the files it commits (all or nothing), the load warnings it hands back, and
+// the JSON and text summaries built from it (src/viewfactors/report.h).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "scratch_dir.h"
+#include "util/error.h"
+#include "viewfactors/job.h"
+#include "viewfactors/report.h"
+
+using namespace photometria;
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kCornell = std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/cornell_box.obj";
+
+// The files in `dir`, by name.
+std::set<std::string> files_in(const fs::path& dir) {
+  std::set<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir)) names.insert(e.path().filename().string());
+  return names;
+}
+
+std::vector<std::string> lines_of(const std::string& text) {
+  std::vector<std::string> lines;
+  std::stringstream s(text);
+  std::string line;
+  while (std::getline(s, line)) lines.push_back(line);
+  return lines;
+}
+
+std::set<std::string> keys_of(const nlohmann::json& j) {
+  std::set<std::string> keys;
+  for (const auto& item : j.items()) keys.insert(item.key());
+  return keys;
+}
+
+ViewFactorJob cornell_job(const fs::path& dir) {
+  ViewFactorJob job;
+  job.scene = kCornell;
+  job.output = (dir / "vf.csv").string();
+  return job;
+}
+
+// Two points: one on the floor facing up, one beside the left wall facing +x.
+std::string write_points(const fs::path& dir) {
+  const fs::path p = dir / "points.csv";
+  std::ofstream(p) << "x,y,z,nx,ny,nz,id\n0,0.01,0,0,1,0,centre\n-0.9,1,0,1,0,0,left\n";
+  return p.string();
+}
+
+const std::set<std::string> kAlwaysKeys = {"scene",   "output",      "format", "level",           "surfaces",
+                                           "patches", "faces",       "accuracy", "visibility",    "visibility_reason",
+                                           "checks",  "matrix",      "memory_estimate", "pairs",  "enforce",
+                                           "seconds", "peak_memory_bytes"};
+
+}  // namespace
+
+TEST(ViewFactorJob, FaceLevelCsvResultAndSummaries) {
+  const fs::path dir = test_scratch::fresh_dir("photometria_vfjob_");
+  ViewFactorJob job = cornell_job(dir);
+  job.level = AggregateLevel::Face;
+  std::vector<std::string> warnings;
+  job.on_load_warning = [&](const std::string& source, const std::string& w) {
+    EXPECT_EQ(source, kCornell);
+    warnings.push_back(w);
+  };
+  const ViewFactorJobResult r = run_view_factor_job(job);
+
+  // The Cornell box: 18 input faces, one non-planar quad split into two triangles: 19 faces,
+  // one patch each (no --max-edge), 18 rows (one per input face).
+  EXPECT_EQ(r.faces, 19);
+  EXPECT_EQ(r.patches, 19);
+  ASSERT_EQ(r.surfaces(), 18);
+  EXPECT_EQ(r.names.front(), "face 0");
+  ASSERT_EQ(r.areas.size(), 18u);
+  ASSERT_EQ(r.F.rows(), 18);
+  ASSERT_EQ(r.F.cols(), 18);
+  EXPECT_EQ(r.job.scene, kCornell);
+  EXPECT_EQ(r.job.output, job.output);
+  EXPECT_EQ(r.job.level, AggregateLevel::Face);
+  EXPECT_EQ(r.job.format, ViewFactorFormat::Csv);
+  EXPECT_EQ(r.job.fill.accuracy, 1e-7);
+  EXPECT_EQ(r.job.fill.quadrature, 6);
+  EXPECT_EQ(r.visibility_mode, "exact");
+  EXPECT_FALSE(r.visibility_reason.empty());
+  EXPECT_FALSE(r.matrix_storage.empty());
+  EXPECT_GT(r.matrix_bytes, 0.0);
+  EXPECT_GT(r.memory.estimated_bytes, 0.0);
+  EXPECT_EQ(r.memory.limit_source, "MemAvailable");
+  EXPECT_GT(r.fill.pairs_evaluated, 0);
+  EXPECT_GT(r.fill.pairs_occluded, 0);  // the boxes block some pairs
+  EXPECT_GE(r.seconds, 0.0);
+  EXPECT_TRUE(r.job.points_output.empty());
+  EXPECT_EQ(r.job.fill.points, 0);
+  EXPECT_EQ(r.sparse.written, 0);
+  EXPECT_EQ(r.enforcement_report.iterations, 0);
+  // The checks are those of the returned matrix: an open box, rows sum to at most 1.
+  EXPECT_LE(r.checks.max_row_sum, 1.0 + 1e-9);
+  EXPECT_NEAR(r.checks.max_row_sum, r.F.rowwise().sum().maxCoeff(), 1e-15);
+  EXPECT_GE(r.checks.min_entry, 0.0);
+
+  // Load warnings came back through the callback (the split face and the two flipped ones).
+  EXPECT_EQ(warnings.size(), 2u);
+
+  // Only the committed output is left, no temporary file.
+  EXPECT_EQ(files_in(dir), std::set<std::string>{"vf.csv"});
+  std::ifstream in(job.output);
+  std::string header;
+  std::getline(in, header);
+  EXPECT_EQ(header.rfind("name,area,face 0,face 1,", 0), 0u) << header;
+
+  const nlohmann::json j = viewfactor_summary_json(r);
+  EXPECT_EQ(keys_of(j), kAlwaysKeys);
+  EXPECT_EQ(j["format"], "csv");
+  EXPECT_EQ(j["level"], "face");
+  EXPECT_EQ(j["enforce"], "none");
+  EXPECT_EQ(j["surfaces"], 18);
+  EXPECT_EQ(j["patches"], 19);
+  EXPECT_EQ(j["checks"]["worst_row_name"], r.names[static_cast<size_t>(r.checks.worst_row)]);
+  EXPECT_EQ(j["checks"]["row_sum_max"].get<double>(), r.checks.max_row_sum);
+  EXPECT_EQ(j["pairs"]["fixed_rule_order"], 6);
+  EXPECT_EQ(j["matrix"]["storage"], r.matrix_storage);
+  EXPECT_EQ(j["seconds"].get<double>(), r.seconds);
+
+  const std::vector<std::string> lines = lines_of(viewfactor_summary_text(r));
+  ASSERT_EQ(lines.size(), 8u) << viewfactor_summary_text(r);
+  EXPECT_EQ(lines[0], "view factors: 18 faces from 19 patches -> " + job.output + " (csv)");
+  EXPECT_EQ(lines[1], "  visibility: exact (" + r.visibility_reason + ")");
+  const std::vector<std::string> starts = {"  row sums: min ", "  reciprocity error max: ", "  matrix: " + r.matrix_storage + ", ",
+                                           "  memory estimate: ", "  pairs: ", "  time "};
+  for (size_t i = 0; i < starts.size(); ++i) EXPECT_EQ(lines[i + 2].rfind(starts[i], 0), 0u) << lines[i + 2];
+  EXPECT_NE(lines[7].find(" s, peak memory "), std::string::npos);
+}
+
+TEST(ViewFactorJob, SparseEnforcedWithPoints) {
+  const fs::path dir = test_scratch::fresh_dir("photometria_vfjob_");
+  ViewFactorJob job = cornell_job(dir);
+  job.output = (dir / "vf.txt").string();
+  job.format = ViewFactorFormat::Sparse;
+  job.threshold = 1e-3;
+  job.enforcement = Enforcement::Both;
+  job.points = write_points(dir);
+  job.fill.max_memory_bytes = 1 << 30;
+  const ViewFactorJobResult r = run_view_factor_job(job);
+
+  ASSERT_EQ(r.surfaces(), 8);  // the groups of the OBJ file
+  EXPECT_EQ(r.job.fill.points, 2);
+  EXPECT_EQ(r.job.points_output, job.output + ".points.csv");
+  EXPECT_EQ(r.memory.limit_bytes, double(1 << 30));
+  EXPECT_EQ(r.memory.limit_source, "--max-memory");
+  // Both: reciprocal and closed afterwards.
+  EXPECT_GT(r.enforcement_report.before.reciprocity_error, 1e-3);
+  EXPECT_LT(r.enforcement_report.after.reciprocity_error, 1e-12);
+  EXPECT_NEAR(r.checks.min_row_sum, 1.0, 1e-12);
+  EXPECT_NEAR(r.checks.max_row_sum, 1.0, 1e-12);
+  EXPECT_GT(r.sparse.written, 0);
+  EXPECT_EQ(r.sparse.written + r.sparse.dropped, (r.F.array() > 0.0).count());
+
+  EXPECT_EQ(files_in(dir), (std::set<std::string>{"points.csv", "vf.txt", "vf.txt.points.csv"}));
+
+  const nlohmann::json j = viewfactor_summary_json(r);
+  std::set<std::string> want = kAlwaysKeys;
+  want.insert({"enforcement", "sparse", "points"});
+  EXPECT_EQ(keys_of(j), want);
+  EXPECT_EQ(j["format"], "sparse");
+  EXPECT_EQ(j["level"], "group");
+  EXPECT_EQ(j["enforce"], "both");
+  EXPECT_EQ(keys_of(j["enforcement"]), (std::set<std::string>{"before", "after", "iterations", "max_change"}));
+  EXPECT_EQ(j["sparse"]["threshold"].get<double>(), 1e-3);
+  EXPECT_EQ(j["sparse"]["written"], r.sparse.written);
+  EXPECT_EQ(j["points"]["count"], 2);
+  EXPECT_EQ(j["points"]["output"], r.job.points_output);
+  EXPECT_EQ(j["memory_estimate"]["limit_source"], "--max-memory");
+
+  const std::vector<std::string> lines = lines_of(viewfactor_summary_text(r));
+  ASSERT_EQ(lines.size(), 11u) << viewfactor_summary_text(r);
+  EXPECT_EQ(lines[0], "view factors: 8 groups from 19 patches -> " + job.output + " (sparse)");
+  EXPECT_EQ(lines[7].rfind("  enforcement both: reciprocity error ", 0), 0u) << lines[7];
+  EXPECT_EQ(lines[8].rfind("  sparse: " + std::to_string(r.sparse.written) + " entries written, ", 0), 0u) << lines[8];
+  EXPECT_NE(lines[8].find(" below 0.001 dropped"), std::string::npos) << lines[8];
+  EXPECT_EQ(lines[9], "  point factors: 2 points -> " + r.job.points_output);
+  EXPECT_EQ(lines[10].rfind("  time ", 0), 0u);
+}
+
+TEST(ViewFactorJob, PointsOutputCannotBeTheMatrixOutput) {
+  const fs::path dir = test_scratch::fresh_dir("photometria_vfjob_");
+  ViewFactorJob job = cornell_job(dir);
+  job.points = write_points(dir);
+  job.points_output = (dir / "." / "vf.csv").string();
+  bool warned = false;
+  job.on_load_warning = [&](const std::string&, const std::string&) { warned = true; };
+  try {
+    run_view_factor_job(job);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::BadInput);
+    EXPECT_NE(std::string(e.what()).find("is also the -o output"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(warned);  // refused before the scene is loaded
+  EXPECT_EQ(files_in(dir), std::set<std::string>{"points.csv"});
+}
+
+TEST(ViewFactorJob, AllOrNothingOnAnUnwritablePointsOutput) {
+  const fs::path dir = test_scratch::fresh_dir("photometria_vfjob_");
+  ViewFactorJob job = cornell_job(dir);
+  job.points = write_points(dir);
+  job.points_output = (dir / "no_such_dir" / "p.csv").string();
+  try {
+    run_view_factor_job(job);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::Io);
+  }
+  EXPECT_EQ(files_in(dir), std::set<std::string>{"points.csv"});  // no matrix, no temporary
+}
+
+TEST(ViewFactorJob, MissingPointsFileFailsAfterTheWarningsAndLeavesNothing) {
+  const fs::path dir = test_scratch::fresh_dir("photometria_vfjob_");
+  ViewFactorJob job = cornell_job(dir);
+  job.points = (dir / "none.csv").string();
+  int warnings = 0;
+  job.on_load_warning = [&](const std::string&, const std::string&) { ++warnings; };
+  EXPECT_THROW(run_view_factor_job(job), Error);
+  EXPECT_EQ(warnings, 2);  // delivered as the scene loaded, before the error
+  EXPECT_TRUE(files_in(dir).empty());
+}
+
+TEST(ViewFactorJob, NamesRoundTrip) {
+  for (AggregateLevel l : {AggregateLevel::Group, AggregateLevel::Face, AggregateLevel::Patch}) {
+    AggregateLevel back = AggregateLevel::Group;
+    EXPECT_TRUE(aggregate_level_from_name(aggregate_level_name(l), back));
+    EXPECT_EQ(back, l);
+  }
+  for (Enforcement e : {Enforcement::None, Enforcement::Reciprocity, Enforcement::Closure, Enforcement::Both}) {
+    Enforcement back = Enforcement::None;
+    EXPECT_TRUE(enforcement_from_name(enforcement_name(e), back));
+    EXPECT_EQ(back, e);
+  }
+  for (ViewFactorFormat f :
+       {ViewFactorFormat::Csv, ViewFactorFormat::Sparse, ViewFactorFormat::Binary, ViewFactorFormat::View3d}) {
+    ViewFactorFormat back = ViewFactorFormat::Csv;
+    EXPECT_TRUE(view_factor_format_from_name(view_factor_format_name(f), back));
+    EXPECT_EQ(back, f);
+  }
+  AggregateLevel l;
+  Enforcement e;
+  ViewFactorFormat f;
+  EXPECT_FALSE(aggregate_level_from_name("Group", l));
+  EXPECT_FALSE(enforcement_from_name("", e));
+  EXPECT_FALSE(view_factor_format_from_name("vs3", f));
+}
