@@ -23,7 +23,7 @@ namespace pv = photometria::validation;
 namespace {
 
 struct BenchArgs {
-  bool quick = false, json = false;
+  bool quick = false, json = false, quiet = false;
   std::string csv;
   int threads = 0;
   int max_patches = 0;
@@ -99,7 +99,7 @@ int run_bench(const BenchArgs& a) {
   if (!a.json) print_header();
   // Each case's progress and time left on stderr: a bar on a terminal, a line every 5 s elsewhere.
   pm::ProgressReporter progress(std::cerr, isatty(STDERR_FILENO));
-  opt.progress = progress.callback();
+  if (!a.quiet) opt.progress = progress.callback();
   opt.on_start = [&progress](const std::string& label) {
     progress.clear();
     std::cerr << "bench: " << label << "...\n" << std::flush;
@@ -131,6 +131,7 @@ Command add_bench_command(CLI::App& app) {
   cmd->add_option("--threads", args->threads, "Threads (default: all cores)")
       ->check(options::integer_in(0, options::kMaxThreads));
   cmd->add_flag("--json", args->json, "One JSON object per row on stdout instead of the table");
+  cmd->add_flag("--quiet", args->quiet, "No progress within a case on stderr");
   cmd->add_option("--max-memory", args->max_memory,
                   "Skip cases whose memory estimate exceeds this (e.g. 2G; default: MemAvailable)");
   cmd->add_option("--max-patches", args->max_patches, "Skip cases with more patches than this (0: no limit)")

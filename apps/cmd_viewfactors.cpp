@@ -1,6 +1,8 @@
 // `photometria viewfactors SCENE -o VF.csv [--by group|face|patch] [--format ...] [--enforce ...]
 // [--points FILE] [--max-memory SIZE] [--matrix ...]`: view-factor matrices for radiative heat transfer
 // (docs/viewfactors.md).
+#include <unistd.h>
+
 #include <iostream>
 #include <memory>
 #include <string>
@@ -10,6 +12,7 @@
 #include "formfactors/storage.h"
 #include "pipeline/memory.h"
 #include "util/error.h"
+#include "util/progress.h"
 #include "viewfactors/job.h"
 #include "viewfactors/report.h"
 
@@ -22,7 +25,7 @@ struct ViewFactorArgs {
                              points_output, max_memory, matrix = "auto", matrix_precision = "auto";
   double threshold = 0.0, max_edge = 0.0, accuracy = 1e-7;
   int rays = 576, threads = 0;
-  bool json = false, flip_normals = false;
+  bool json = false, flip_normals = false, quiet = false;
 };
 
 // The options as the job takes them; throws BadInput (one line naming the option) on a value
@@ -36,11 +39,7 @@ pm::ViewFactorJob job_of(const ViewFactorArgs& a) {
   if (!pm::enforcement_from_name(a.enforce, job.enforcement))
     pm::throw_bad_input("--enforce: unknown mode '" + a.enforce + "' (none, reciprocity, closure or both)");
   pm::ViewFactorOptions& opt = job.fill;
-  if (a.visibility == "auto") opt.visibility = pm::VisibilityMode::Auto;
-  else if (a.visibility == "none") opt.visibility = pm::VisibilityMode::None;
-  else if (a.visibility == "rays") opt.visibility = pm::VisibilityMode::Rays;
-  else if (a.visibility == "exact") opt.visibility = pm::VisibilityMode::Exact;
-  else pm::throw_bad_input("--visibility: unknown mode '" + a.visibility + "' (auto, none, rays or exact)");
+  opt.visibility = pm::parse_visibility_mode(a.visibility);
   if (!(a.accuracy > 0.0 && a.accuracy < 1.0)) pm::throw_bad_input("--accuracy must lie in (0, 1)");
   if (!(a.max_edge >= 0.0)) pm::throw_bad_input("--max-edge must be >= 0");
   if (!(a.threshold >= 0.0)) pm::throw_bad_input("--threshold must be >= 0");
@@ -66,7 +65,12 @@ pm::ViewFactorJob job_of(const ViewFactorArgs& a) {
 }
 
 int run(const ViewFactorArgs& a) {
-  const pm::ViewFactorJobResult r = pm::run_view_factor_job(job_of(a));
+  pm::ViewFactorJob job = job_of(a);
+  // The fill's progress and time left on stderr: a bar on a terminal, a line every 5 s elsewhere.
+  pm::ProgressReporter progress(std::cerr, isatty(STDERR_FILENO));
+  if (!a.quiet) job.fill.progress = progress.callback();
+  const pm::ViewFactorJobResult r = pm::run_view_factor_job(job);
+  progress.clear();
   if (a.json) std::cout << pm::viewfactor_summary_json(r).dump(2) << std::endl;
   else std::cout << pm::viewfactor_summary_text(r);
   return 0;
@@ -101,5 +105,6 @@ Command add_viewfactors_command(CLI::App& app) {
       ->check(options::integer_in(0, options::kMaxThreads));
   sub->add_flag("--flip-normals", a->flip_normals, "Reverse every face (inside-out exports)");
   sub->add_flag("--json", a->json, "Print a machine-readable summary on stdout");
+  sub->add_flag("--quiet", a->quiet, "No progress on stderr");
   return {sub, [a]() { return run(*a); }};
 }
