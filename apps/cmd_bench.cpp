@@ -10,8 +10,8 @@
 #include <sstream>
 
 #include "commands.h"
-#include "options.h"
 #include "io/atomic_file.h"
+#include "options.h"
 #include "pipeline/memory.h"
 #include "util/error.h"
 #include "util/progress.h"
@@ -60,10 +60,12 @@ std::string sci(double x) {
 void print_header() {
   std::cout << std::left << std::setw(6) << "scene" << std::setw(13) << "setting" << std::setw(12) << "task"
             << std::setw(7) << "vis" << std::right << std::setw(8) << "N" << std::setw(12) << "pairs" << std::setw(11)
-            << "pairs/s" << std::setw(11) << "evals/s" << std::setw(10) << "rays" << std::setw(10) << "rays/s" << std::setw(9) << "ff s"
-            << std::setw(8) << "solve s" << std::setw(9) << "gather s" << std::setw(9) << "total s" << std::setw(11)
-            << "peak mem" << "  " << std::left << std::setw(14) << "matrix" << std::right << std::setw(9)
-            << "|rs-1|" << std::setw(9) << "rel err" << std::setw(4) << "T" << "\n";
+            << "pairs/s" << std::setw(11) << "evals/s" << std::setw(10) << "rays" << std::setw(10) << "rays/s"
+            << std::setw(9) << "ff s" << std::setw(8) << "solve s" << std::setw(9) << "gather s" << std::setw(9)
+            << "total s" << std::setw(11) << "peak mem"
+            << "  " << std::left << std::setw(14) << "matrix" << std::right << std::setw(9) << "|rs-1|" << std::setw(9)
+            << "rel err" << std::setw(4) << "T"
+            << "\n";
 }
 
 void print_row(const pv::BenchRow& r) {
@@ -75,8 +77,8 @@ void print_row(const pv::BenchRow& r) {
   }
   std::cout << std::setw(7) << r.visibility << std::right << std::setw(8) << pm::format_count(r.patches)
             << std::setw(12) << pm::format_count(r.pairs_evaluated) << std::setw(11) << rate(r.pairs_per_second)
-            << std::setw(11) << rate(r.evaluations_per_second)
-            << std::setw(10) << rate(double(r.rays_cast)) << std::setw(10) << (r.rays_cast > 0 ? rate(r.rays_per_second) : "-") << std::setw(9)
+            << std::setw(11) << rate(r.evaluations_per_second) << std::setw(10) << rate(double(r.rays_cast))
+            << std::setw(10) << (r.rays_cast > 0 ? rate(r.rays_per_second) : "-") << std::setw(9)
             << secs(r.form_factor_seconds) << std::setw(8) << secs(r.solve_seconds) << std::setw(9)
             << secs(r.gather_seconds) << std::setw(9) << secs(r.total_seconds) << std::setw(11)
             << (r.peak_memory_per_case ? "" : "<") + pm::format_bytes(r.peak_memory_bytes) << "  " << std::left
@@ -135,7 +137,7 @@ Command add_bench_command(CLI::App& app) {
   cmd->add_option("--max-memory", args->max_memory,
                   "Skip cases whose memory estimate exceeds this (e.g. 2G; default: MemAvailable)");
   cmd->add_option("--max-patches", args->max_patches, "Skip cases with more patches than this (0: no limit)")
-      
+
       ->check(options::integer_in(0, std::numeric_limits<int>::max()));
   cmd->add_option("--only", args->only,
                   "Run only the cases whose label contains this text (labels: \"cube n=32 solve\", "

@@ -66,14 +66,15 @@ Command add_formfactor_command(CLI::App& app) {
   sub->add_option("--kernel", args->kernel,
                   "polygon formulation: " + pm::kernel_names() + " (default: " + args->kernel +
                       ", the most accurate; approximations print their error)");
-  return {sub, [args]() {
-            const auto kernel = pm::kernel_from_name(args->kernel);
-            if (!kernel)
-              pm::throw_bad_input("--kernel: unknown kernel '" + args->kernel + "' (one of: " + pm::kernel_names() + ")");
-            const std::vector<pm::PointQuery> queries = pm::load_queries(args->queries);
-            std::string text;
-            for (const pm::PointQuery& q : queries) text += line_for(q, *kernel) + "\n";
-            std::cout << text << std::flush;
-            return 0;
-          }};
+  return {
+      sub, [args]() {
+        const auto kernel = pm::kernel_from_name(args->kernel);
+        if (!kernel)
+          pm::throw_bad_input("--kernel: unknown kernel '" + args->kernel + "' (one of: " + pm::kernel_names() + ")");
+        const std::vector<pm::PointQuery> queries = pm::load_queries(args->queries);
+        std::string text;
+        for (const pm::PointQuery& q : queries) text += line_for(q, *kernel) + "\n";
+        std::cout << text << std::flush;
+        return 0;
+      }};
 }

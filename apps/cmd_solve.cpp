@@ -8,9 +8,9 @@
 #include <optional>
 
 #include "commands.h"
-#include "options.h"
 #include "io/atomic_file.h"
 #include "io/vtu.h"
+#include "options.h"
 #include "pipeline/memory.h"
 #include "pipeline/report.h"
 #include "pipeline/solve.h"
@@ -75,7 +75,10 @@ T setting(const std::optional<T>& cli, const nlohmann::json& settings, const cha
 
 double bounding_diagonal(const pm::Scene& scene) {
   pm::Vec3 lo = scene.vertices.at(0), hi = lo;
-  for (const auto& v : scene.vertices) { lo = lo.cwiseMin(v); hi = hi.cwiseMax(v); }
+  for (const auto& v : scene.vertices) {
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+  }
   return (hi - lo).norm();
 }
 
@@ -93,7 +96,8 @@ int run_solve(const SolveArgs& a) {
 
   const pm::Scene scene = pm::load_scene(a.scene, load);
   if (!a.quiet)
-    for (const std::string& w : pm::load_warnings(scene.stats)) std::cerr << "photometria: warning: " << scene.source << ": " << w << "\n";
+    for (const std::string& w : pm::load_warnings(scene.stats))
+      std::cerr << "photometria: warning: " << scene.source << ": " << w << "\n";
   const nlohmann::json& st = scene.settings;
   pm::SolveOptions opt;
   // Default patch size: 1/16 of the scene's bounding diagonal (about 10 × 10 patches per wall).
@@ -113,7 +117,8 @@ int run_solve(const SolveArgs& a) {
     pm::throw_bad_input("--max-edge/--max-area must be finite and >= 0");
   if (opt.quadrature < 1 || opt.quadrature > 16) pm::throw_bad_input("--quadrature must be in 1..16");
   if (opt.rays < 1) pm::throw_bad_input("--rays must be >= 1");
-  if (!(opt.solver.tolerance > 0) || !std::isfinite(opt.solver.tolerance)) pm::throw_bad_input("--tolerance must be finite and > 0");
+  if (!(opt.solver.tolerance > 0) || !std::isfinite(opt.solver.tolerance))
+    pm::throw_bad_input("--tolerance must be finite and > 0");
   opt.max_memory_bytes = max_memory;
   opt.threads = a.threads;
   opt.matrix_layout = pm::parse_layout(a.matrix);
@@ -128,7 +133,8 @@ int run_solve(const SolveArgs& a) {
   const auto t0 = std::chrono::steady_clock::now();
   pm::write_vtu(out, pm::result_grid(scene, result));
   out.commit();
-  result.summary.stage_seconds.emplace_back("write", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  result.summary.stage_seconds.emplace_back(
+      "write", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
 
   if (!a.quiet) std::cerr << pm::summary_table(scene, result.summary) << "  output                " << output << "\n";
   if (a.json) {
@@ -153,9 +159,10 @@ Command add_solve_command(CLI::App& app) {
       ->check(options::real_in(0, options::kInf));
   solve->add_option("--quadrature", s.quadrature, "Receiver rule: 1 = centroid, n = n×n Gauss points (default 1)")
       ->check(options::integer_in(1, 16));
-  solve->add_option("--accuracy", s.accuracy,
-                    "Relative accuracy of patch-to-patch factors: rule chosen per pair (overrides --quadrature "
-                    "for pairs nothing can block; default 0 = off)")
+  solve
+      ->add_option("--accuracy", s.accuracy,
+                   "Relative accuracy of patch-to-patch factors: rule chosen per pair (overrides --quadrature "
+                   "for pairs nothing can block; default 0 = off)")
       ->check(options::real_in(0, 1, false, true));
   solve->add_option("--visibility", s.visibility, "auto | none | rays | exact (default auto)");
   solve->add_option("--rays", s.rays, "Rays per receiver point and patch for --visibility rays (default 576 = 24²)")
@@ -171,9 +178,13 @@ Command add_solve_command(CLI::App& app) {
       ->check(options::integer_in(0, options::kMaxThreads));
   solve->add_option("--reflectance", s.reflectance, "Default reflectance for formats without materials: r or r,g,b");
   solve->add_option("--emission", s.emission, "Default emission (W/m²) for formats without materials: e or r,g,b");
-  solve->add_option("--max-memory", s.max_memory, "Refuse to solve when the memory estimate exceeds this: 512M, 2G, ... (default: MemAvailable)");
-  solve->add_option("--matrix", s.matrix, "Form-factor storage: auto | dense | sparse (default auto: the smaller for the scene)");
-  solve->add_option("--matrix-precision", s.matrix_precision, "Form-factor entries: auto | double | float (default auto: double unless only float fits the memory limit; float halves the matrix)");
+  solve->add_option("--max-memory", s.max_memory,
+                    "Refuse to solve when the memory estimate exceeds this: 512M, 2G, ... (default: MemAvailable)");
+  solve->add_option("--matrix", s.matrix,
+                    "Form-factor storage: auto | dense | sparse (default auto: the smaller for the scene)");
+  solve->add_option("--matrix-precision", s.matrix_precision,
+                    "Form-factor entries: auto | double | float (default auto: double unless only float fits the "
+                    "memory limit; float halves the matrix)");
   solve->add_flag("--flip-normals", s.flip_normals, "Reverse every face's winding (inside-out exports)");
   solve->add_flag("--keep-orientation", s.keep_orientation, "Do not flip faces wound against their closed surface");
   solve->add_flag("--json", s.json, "Print a machine-readable summary on stdout");

@@ -27,14 +27,13 @@ int run_validate(const ValidateArgs& a) {
   nlohmann::json refs;
   try {
     refs = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {
-    pm::throw_bad_input(a.refs + ": " + e.what());
-  }
+  } catch (const nlohmann::json::exception& e) { pm::throw_bad_input(a.refs + ": " + e.what()); }
   // The report's three files are opened now (an unwritable folder fails before the run) and
   // committed together at the end, so a failed report leaves the earlier one as it was.
   struct Report {
     explicit Report(const std::filesystem::path& dir)
-        : csv((dir / "validation.csv").string()), md((dir / "validation_table.md").string()),
+        : csv((dir / "validation.csv").string()),
+          md((dir / "validation_table.md").string()),
           png((dir / "error_vs_time.png").string()) {}
     pm::AtomicOutput csv, md, png;
   };
@@ -48,7 +47,8 @@ int run_validate(const ValidateArgs& a) {
 
   std::cout << std::left << std::setw(46) << "scene" << std::setw(20) << "setting" << std::right << std::setw(8)
             << "patches" << std::setw(7) << "cases" << std::setw(13) << "max rel err" << std::setw(13) << "rms rel err"
-            << std::setw(11) << "seconds" << "\n";
+            << std::setw(11) << "seconds"
+            << "\n";
   pv::ValidationOptions opt;
   opt.quick = a.quick;
   opt.on_row = [](const pv::ValidationRow& r) {
@@ -69,7 +69,8 @@ int run_validate(const ValidateArgs& a) {
     report->csv.commit();
     report->md.commit();
     report->png.commit();
-    std::cerr << "wrote " << report->csv.target() << ", " << report->md.target() << " and " << report->png.target() << "\n";
+    std::cerr << "wrote " << report->csv.target() << ", " << report->md.target() << " and " << report->png.target()
+              << "\n";
   }
   return 0;
 }

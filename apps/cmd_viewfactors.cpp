@@ -8,8 +8,8 @@
 #include <string>
 
 #include "commands.h"
-#include "options.h"
 #include "formfactors/storage.h"
+#include "options.h"
 #include "pipeline/memory.h"
 #include "util/error.h"
 #include "util/progress.h"
@@ -21,8 +21,8 @@ namespace pm = photometria;
 namespace {
 
 struct ViewFactorArgs {
-  std::string scene, output, by = "group", format = "csv", enforce = "none", visibility = "auto", points,
-                             points_output, max_memory, matrix = "auto", matrix_precision = "auto";
+  std::string scene, output, by = "group", format = "csv", enforce = "none", visibility = "auto", points, points_output,
+                             max_memory, matrix = "auto", matrix_precision = "auto";
   double threshold = 0.0, max_edge = 0.0, accuracy = 1e-7;
   int rays = 576, threads = 0;
   bool json = false, flip_normals = false, quiet = false;
@@ -80,27 +80,36 @@ int run(const ViewFactorArgs& a) {
 
 Command add_viewfactors_command(CLI::App& app) {
   auto a = std::make_shared<ViewFactorArgs>();
-  CLI::App* sub = app.add_subcommand("viewfactors", "View-factor matrix between groups, faces or patches (radiative heat transfer)");
-  sub->add_option("scene", a->scene, "Mesh (.obj .off .ply .stl .om), View3D input (.vs3) or scene file (.json)")->required();
+  CLI::App* sub = app.add_subcommand("viewfactors",
+                                     "View-factor matrix between groups, faces or patches (radiative heat transfer)");
+  sub->add_option("scene", a->scene, "Mesh (.obj .off .ply .stl .om), View3D input (.vs3) or scene file (.json)")
+      ->required();
   sub->add_option("-o,--output", a->output, "Output file")->required();
   sub->add_option("--by", a->by, "Aggregation level: group, face or patch (default group)");
   sub->add_option("--format", a->format, "csv (dense, default), sparse (i,j,F triplets), binary or view3d");
-  sub->add_option("--threshold", a->threshold, "Sparse output: drop factors below this (the summary reports the dropped row sums)")
+  sub->add_option("--threshold", a->threshold,
+                  "Sparse output: drop factors below this (the summary reports the dropped row sums)")
       ->check(options::real_in(0, 1));
   sub->add_option("--enforce", a->enforce, "none (default), reciprocity, closure or both (closed enclosures)");
-  sub->add_option("--points", a->points, "Points with normals (.json or .csv): factors from each point to each surface");
+  sub->add_option("--points", a->points,
+                  "Points with normals (.json or .csv): factors from each point to each surface");
   sub->add_option("--points-output", a->points_output, "Where to write the point factors (default OUTPUT.points.csv)");
-  sub->add_option("--max-edge", a->max_edge, "Split faces into patches with edges at most this long, metres (default: no split)")
+  sub->add_option("--max-edge", a->max_edge,
+                  "Split faces into patches with edges at most this long, metres (default: no split)")
       ->check(options::real_in(0, options::kInf));
   sub->add_option("--accuracy", a->accuracy, "Per-pair relative tolerance for unblocked pairs (default 1e-7)")
       ->check(options::real_in(0, 1, true, true));
   sub->add_option("--visibility", a->visibility, "auto (default), none, rays or exact");
   sub->add_option("--rays", a->rays, "Rays per (point, patch) in ray visibility (default 576)")
       ->check(options::integer_in(1, 1 << 24));
-  sub->add_option("--max-memory", a->max_memory,
-                  "Refuse before the fill when the memory estimate exceeds this: 512M, 2G, ... (default: MemAvailable)");
-  sub->add_option("--matrix", a->matrix, "Patch form-factor storage: auto | dense | sparse (default auto: the smaller for the scene)");
-  sub->add_option("--matrix-precision", a->matrix_precision, "Patch form-factor entries: auto | double | float (default auto: double unless only float fits the memory limit; float halves the matrix)");
+  sub->add_option(
+      "--max-memory", a->max_memory,
+      "Refuse before the fill when the memory estimate exceeds this: 512M, 2G, ... (default: MemAvailable)");
+  sub->add_option("--matrix", a->matrix,
+                  "Patch form-factor storage: auto | dense | sparse (default auto: the smaller for the scene)");
+  sub->add_option("--matrix-precision", a->matrix_precision,
+                  "Patch form-factor entries: auto | double | float (default auto: double unless only float fits the "
+                  "memory limit; float halves the matrix)");
   sub->add_option("--threads", a->threads, "Threads for the fill (default: all cores)")
       ->check(options::integer_in(0, options::kMaxThreads));
   sub->add_flag("--flip-normals", a->flip_normals, "Reverse every face (inside-out exports)");

@@ -23,7 +23,7 @@ std::vector<pm::Receiver> receivers(bool tilted) {
   return r;
 }
 const pm::Vec3 kQuad[4] = {{0.2, 0.2, 1.0}, {0.2, 0.8, 1.0}, {0.8, 0.8, 1.0}, {0.8, 0.2, 1.0}};  // faces down
-const pm::Vec3 kTriangle[3] = {{0.2, 0.2, 1.0}, {0.5, 0.8, 1.0}, {0.8, 0.2, 1.0}};              // faces down
+const pm::Vec3 kTriangle[3] = {{0.2, 0.2, 1.0}, {0.5, 0.8, 1.0}, {0.8, 0.2, 1.0}};               // faces down
 
 // The plain textbook form for comparison only: Heitz 2017 eq. (1) (kernels/lambert.h) with acos of
 // normalized vectors, no clipping, no one-sided test (valid for these unclipped configurations).

@@ -11,9 +11,9 @@
 #include <memory>
 #include <vector>
 
+#include "../tests/scene_builders.h"
 #include "formfactors/aligned_rectangles.h"
 #include "patching/patching.h"
-#include "../tests/scene_builders.h"
 
 namespace pm = photometria;
 
@@ -81,10 +81,18 @@ void pairs(benchmark::State& state, bool rotated, std::size_t budget, int rows_s
 BENCHMARK_CAPTURE(construct, aligned, false)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_CAPTURE(construct, rotated, true)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
 BENCHMARK_CAPTURE(pairs, aligned, false, std::size_t(256) << 20, 1)
-    ->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK_CAPTURE(pairs, rotated, true, std::size_t(256) << 20, 1)
-    ->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(1);
 BENCHMARK_CAPTURE(pairs, direct_every_64th_row, false, std::size_t(0), 64)
-    ->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime();
+    ->Arg(1)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 BENCHMARK_MAIN();

@@ -12,10 +12,10 @@
 
 #include <memory>
 
+#include "../tests/scene_builders.h"
 #include "formfactors/formfactors.h"
 #include "patching/patching.h"
 #include "solver/solver.h"
-#include "../tests/scene_builders.h"
 
 namespace pm = photometria;
 
@@ -40,8 +40,8 @@ const Furnace& furnace() {
   return *f;
 }
 
-const pm::SolverMethod kMethods[] = {pm::SolverMethod::GaussSeidel, pm::SolverMethod::Sor, pm::SolverMethod::Cg,
-                                     pm::SolverMethod::Gmres, pm::SolverMethod::Direct, pm::SolverMethod::Auto};
+const pm::SolverMethod kMethods[] = {pm::SolverMethod::GaussSeidel, pm::SolverMethod::Sor,    pm::SolverMethod::Cg,
+                                     pm::SolverMethod::Gmres,       pm::SolverMethod::Direct, pm::SolverMethod::Auto};
 const double kRho[] = {0.5, 0.9, 0.99, 0.999};
 
 void BM_FurnaceSolve(benchmark::State& state) {
@@ -56,16 +56,16 @@ void BM_FurnaceSolve(benchmark::State& state) {
   if (state.range(2) == 1)
     for (int i = 0; i < n; ++i)
       if (f.mesh.patches[i].face != 0) E.row(i).setZero();  // face 0 = floor (scene_builders.h)
-  const pm::ChannelMatrix R = pm::ChannelMatrix::Constant(n, 3, rho),
-                          H = pm::ChannelMatrix::Zero(n, 3);
+  const pm::ChannelMatrix R = pm::ChannelMatrix::Constant(n, 3, rho), H = pm::ChannelMatrix::Zero(n, 3);
   pm::ChannelMatrix B;
   pm::SolverReport rep;
   for (auto _ : state) {
     rep = pm::solve_radiosity(f.F, E, R, H, true, opt, B);
     state.SetIterationTime(rep.seconds);
   }
-  state.SetLabel(std::string(pm::method_name(opt.method)) + " -> " + pm::method_name(rep.method) + " rho=" +
-                 std::to_string(rho).substr(0, 5) + (state.range(2) ? " floor-emitting" : " furnace") + (rep.converged ? "" : " NOT CONVERGED"));
+  state.SetLabel(std::string(pm::method_name(opt.method)) + " -> " + pm::method_name(rep.method) +
+                 " rho=" + std::to_string(rho).substr(0, 5) + (state.range(2) ? " floor-emitting" : " furnace") +
+                 (rep.converged ? "" : " NOT CONVERGED"));
   state.counters["N"] = n;
   state.counters["iterations"] = rep.iterations;
   state.counters["residual"] = rep.residual;

@@ -40,8 +40,10 @@ void fill(benchmark::State& state, const std::string& name, pm::VisibilityMethod
   state.counters["patches"] = mesh.size();
   state.counters["pairs_tested"] = double(stats.pairs_tested);
   state.counters["culled_share"] = stats.pairs_tested ? double(stats.pairs_culled) / stats.pairs_tested : 1.0;
-  state.counters["rays_per_s"] = benchmark::Counter(double(stats.rays_cast) * state.iterations(), benchmark::Counter::kIsRate);
-  state.counters["pairs_per_s"] = benchmark::Counter(double(stats.pairs_tested) * state.iterations(), benchmark::Counter::kIsRate);
+  state.counters["rays_per_s"] =
+      benchmark::Counter(double(stats.rays_cast) * state.iterations(), benchmark::Counter::kIsRate);
+  state.counters["pairs_per_s"] =
+      benchmark::Counter(double(stats.pairs_tested) * state.iterations(), benchmark::Counter::kIsRate);
 }
 
 void BM_RoomWithTableRays(benchmark::State& state) { fill(state, "room_with_table.obj", pm::VisibilityMethod::Rays); }

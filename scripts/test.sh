@@ -4,6 +4,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install-deps.sh
+# The code is in the style of .clang-format (a change that is not fails here, before the build).
+clang-format --dry-run --Werror $(git ls-files '*.cpp' '*.h' 2>/dev/null || find src apps tests bench -name '*.cpp' -o -name '*.h')
 scripts/build.sh
 ctest --test-dir build --output-on-failure -j"$(nproc)" | tee build/ctest.log
 # A crash-only smoke run of the benchmark (no timing assertions).

@@ -24,13 +24,9 @@ namespace {
 
 using cli_test::CliRun;
 
-fs::path scratch() {
-  return test_scratch::process_dir("photometria_cli_");
-}
+fs::path scratch() { return test_scratch::process_dir("photometria_cli_"); }
 
-CliRun run(const std::string& args) {
-  return cli_test::run_cli(args, (scratch() / "stderr.txt").string());
-}
+CliRun run(const std::string& args) { return cli_test::run_cli(args, (scratch() / "stderr.txt").string()); }
 
 std::string mesh(const std::string& name) { return std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/" + name; }
 
@@ -81,7 +77,8 @@ TEST(Cli, SolvesTheCornellBoxIntoAVtuWithEveryArray) {
 
 TEST(Cli, FurnaceCubeIsUniformAndItsEnergyBalanceCloses) {
   const std::string out = (scratch() / "furnace.vtu").string();
-  const CliRun r = run("solve " + mesh("furnace_cube.obj") + " -o " + out + " --max-edge 0.25 --tolerance 1e-12 --json");
+  const CliRun r =
+      run("solve " + mesh("furnace_cube.obj") + " -o " + out + " --max-edge 0.25 --tolerance 1e-12 --json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto s = nlohmann::json::parse(r.out);
   EXPECT_EQ(s["visibility"]["mode"], "none");
@@ -176,7 +173,8 @@ TEST(Cli, NothingToSolveIsABadInput) {
   // No output and no temporary beside it.
   for (const auto& e : fs::directory_iterator(dir))
     EXPECT_NE(e.path().filename().string().rfind("dark.vtu", 0), 0u) << e.path();
-  const CliRun lit = run("solve " + (dir / "dark.off").string() + " -o " + (dir / "dark.vtu").string() + " --emission 2");
+  const CliRun lit =
+      run("solve " + (dir / "dark.off").string() + " -o " + (dir / "dark.vtu").string() + " --emission 2");
   EXPECT_EQ(lit.exit_code, 0) << lit.err;
 }
 
@@ -185,8 +183,9 @@ TEST(Cli, NothingToSolveIsABadInput) {
 TEST(Cli, AccuracyOptionReachesTheExactCubeSolution) {
   const fs::path dir = scratch();
   std::ofstream(dir / "cube.mtl") << "newmtl wall\nKd 0.5 0.5 0.5\nnewmtl floor\nKd 0.5 0.5 0.5\nKe 1 1 1\n";
-  std::ofstream(dir / "cube.obj") << "mtllib cube.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
-                                  << "usemtl floor\nf 1 2 3 4\nusemtl wall\nf 5 8 7 6\nf 1 5 6 2\nf 2 6 7 3\nf 3 7 8 4\nf 4 8 5 1\n";
+  std::ofstream(dir / "cube.obj")
+      << "mtllib cube.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+      << "usemtl floor\nf 1 2 3 4\nusemtl wall\nf 5 8 7 6\nf 1 5 6 2\nf 2 6 7 3\nf 3 7 8 4\nf 4 8 5 1\n";
   const std::string out = (dir / "cube.vtu").string();
   const CliRun r = run("solve " + (dir / "cube.obj").string() + " -o " + out +
                        " --max-edge 2 --accuracy 1e-8 --tolerance 1e-13 --json");

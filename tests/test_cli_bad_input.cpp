@@ -13,10 +13,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <nlohmann/json.hpp>
-#include <sstream>
 #include <iterator>
+#include <nlohmann/json.hpp>
 #include <set>
+#include <sstream>
 #include <thread>
 
 #include "cli_run.h"
@@ -101,10 +101,8 @@ class BadInput : public ::testing::Test {
 
 // The unit cube, faces wound counter-clockwise seen from inside (fronts inward), one material
 // with ρ = 0.5 and E = 1: the furnace, B = E / (1 − ρ) = 2 on every patch.
-const char* kCubeVertices =
-    "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n";
-const char* kCubeFaces[6] = {"f 1 2 3 4\n", "f 5 8 7 6\n", "f 1 5 6 2\n",
-                             "f 2 6 7 3\n", "f 3 7 8 4\n", "f 4 8 5 1\n"};
+const char* kCubeVertices = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n";
+const char* kCubeFaces[6] = {"f 1 2 3 4\n", "f 5 8 7 6\n", "f 1 5 6 2\n", "f 2 6 7 3\n", "f 3 7 8 4\n", "f 4 8 5 1\n"};
 const char* kFurnaceMtl = "newmtl furnace\nKd 0.5\nKe 1\n";
 
 std::string cube(const std::string& extra_faces = "", int reversed_face = -1, bool all_reversed = false) {
@@ -185,15 +183,16 @@ TEST_F(BadInput, InfiniteJsonNumber) {
   write("furnace.mtl", kFurnaceMtl);
   write("cube.obj", cube());
   // Too large for a double: refused while parsing, naming the line and the number.
-  expect_failure(write("scene.json", "{\"meshes\": [{\"file\": \"cube.obj\"}],\n \"settings\": {\"max_edge\": 1e999}}"), 1,
-                 {"scene.json:2", "'1e999'", "not a finite number"});
+  expect_failure(write("scene.json", "{\"meshes\": [{\"file\": \"cube.obj\"}],\n \"settings\": {\"max_edge\": 1e999}}"),
+                 1, {"scene.json:2", "'1e999'", "not a finite number"});
 }
 
 TEST_F(BadInput, NanOnTheCommandLine) {
   write("furnace.mtl", kFurnaceMtl);
   const std::string obj = write("cube.obj", cube());
   expect_failure(obj, 1, {"--max-edge"}, "--max-edge nan");
-  expect_failure(write("t.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"), 1, {"--emission", "'nan'"}, "--emission nan");
+  expect_failure(write("t.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"), 1, {"--emission", "'nan'"},
+                 "--emission nan");
 }
 
 TEST_F(BadInput, NegativeReflectance) {
@@ -224,9 +223,10 @@ TEST_F(BadInput, MemoryEstimateAboveTheLimitIsRefused) {
   write("furnace.mtl", kFurnaceMtl);
   const std::string obj = write("cube.obj", cube());
   // --max-edge 0.05: 20 × 20 patches per wall, N = 2400, dense form factors alone 2400² × 8 bytes = 44 MiB.
-  expect_failure(obj, 1, {"needs ", " MiB for 2,400 patches (dense double form factors)", "--max-memory is 16 MiB",
-                          "raise --max-edge"},
-                 "--max-edge 0.05 --max-memory 16M");
+  expect_failure(
+      obj, 1,
+      {"needs ", " MiB for 2,400 patches (dense double form factors)", "--max-memory is 16 MiB", "raise --max-edge"},
+      "--max-edge 0.05 --max-memory 16M");
   // The figure: at least the matrix (44 MiB), plus well under 4 kB per patch for the rest.
   const CliRun r = run("solve " + obj + " -o " + path("out.vtu") + " --max-edge 0.05 --max-memory 16M");
   const size_t at = r.err.find("needs ");
@@ -341,7 +341,8 @@ TEST_F(BadInput, DuplicateFacesAreDroppedAndCounted) {
   write("furnace.mtl", kFurnaceMtl);
   // The floor again, started at another corner; and the ceiling as its back-to-back twin
   // (reverse winding: a two-sided sheet, kept).
-  const nlohmann::json s = solve_ok(write("cube.obj", cube("f 3 4 1 2\nf 6 7 8 5\n")), "--max-edge 0.5 --tolerance 1e-12");
+  const nlohmann::json s =
+      solve_ok(write("cube.obj", cube("f 3 4 1 2\nf 6 7 8 5\n")), "--max-edge 0.5 --tolerance 1e-12");
   EXPECT_EQ(s["load"]["duplicate_faces"], 1);
   EXPECT_EQ(s["warnings"].size(), 1u) << s["warnings"];
   EXPECT_EQ(s["load"]["input_faces"], 8);
@@ -418,8 +419,9 @@ TEST_F(BadInput, OrientationOfOpenOrNonManifoldSurfacesIsLeftAlone) {
   EXPECT_EQ(photometria::load_scene(write("fin.obj", fin)).stats.flipped_faces, 0);
   // Two closed cubes side by side (not sharing vertices), one face flipped in each.
   std::string two = cube("", 3);
-  two += "v 2 0 0\nv 3 0 0\nv 3 1 0\nv 2 1 0\nv 2 0 1\nv 3 0 1\nv 3 1 1\nv 2 1 1\n"
-         "f 9 10 11 12\nf 13 16 15 14\nf 14 10 9 13\nf 11 15 14 10\nf 11 15 16 12\nf 12 16 13 9\n";
+  two +=
+      "v 2 0 0\nv 3 0 0\nv 3 1 0\nv 2 1 0\nv 2 0 1\nv 3 0 1\nv 3 1 1\nv 2 1 1\n"
+      "f 9 10 11 12\nf 13 16 15 14\nf 14 10 9 13\nf 11 15 14 10\nf 11 15 16 12\nf 12 16 13 9\n";
   const photometria::Scene s = photometria::load_scene(write("two.obj", two));
   EXPECT_EQ(s.stats.flipped_faces, 2);
   EXPECT_FALSE(s.stats.enclosure_faces_outward);  // neither box holds the whole scene

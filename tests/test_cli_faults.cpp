@@ -227,9 +227,9 @@ class WriteFaults : public ::testing::TestWithParam<Fault> {
   }
 };
 
-#define REQUIRE_FAULT(cramped)                                          \
-  do {                                                                  \
-    std::string why_;                                                   \
+#define REQUIRE_FAULT(cramped)                                                             \
+  do {                                                                                     \
+    std::string why_;                                                                      \
     if (!(cramped).available(why_)) GTEST_SKIP() << "cannot mount a tmpfs here: " << why_; \
   } while (0)
 
@@ -292,8 +292,7 @@ TEST_P(WriteFaults, BenchKeepsTheEarlierCsv) {
   const fs::path out = c.dir() / "bench.csv";
   write(out, "an earlier bench\n");
   const auto before = contents(c.dir());
-  const Outcome o =
-      run({"bench", "--quick", "--only", "cube n=8 solve", "--csv", out.string()}, c.limits());
+  const Outcome o = run({"bench", "--quick", "--only", "cube n=8 solve", "--csv", out.string()}, c.limits());
   // bench reports progress on stderr: the error is its last line.
   std::string err = o.err;
   std::string last = err.substr(err.rfind('\n', err.size() - 2) + 1);
@@ -372,8 +371,8 @@ TEST(MemoryFaults, HugePatchCountIsRefusedBeforeAllocating) {
   limits.address_space = rlim_t(2) << 30;
   const fs::path dir = test_scratch::process_dir("photometria_faults_");
   for (const std::string command : {"solve", "viewfactors"}) {
-    std::vector<std::string> args = {command, kMeshes + "cornell_box.obj", "--max-edge", "1e-3", "-o",
-                                     (dir / ("huge_" + command)).string()};
+    std::vector<std::string> args = {command, kMeshes + "cornell_box.obj",         "--max-edge", "1e-3",
+                                     "-o",    (dir / ("huge_" + command)).string()};
     const Outcome o = run(args, limits);
     EXPECT_EQ(o.exit_code, 1) << o.err;
     const std::string err = errors_only(o.err);

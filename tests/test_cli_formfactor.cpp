@@ -20,13 +20,9 @@ namespace {
 
 using cli_test::CliRun;
 
-fs::path scratch() {
-  return test_scratch::process_dir("photometria_ff_");
-}
+fs::path scratch() { return test_scratch::process_dir("photometria_ff_"); }
 
-CliRun run(const std::string& args) {
-  return cli_test::run_cli(args, (scratch() / "stderr.txt").string());
-}
+CliRun run(const std::string& args) { return cli_test::run_cli(args, (scratch() / "stderr.txt").string()); }
 
 std::string write(const std::string& name, const std::string& text) {
   const fs::path p = scratch() / name;
@@ -71,14 +67,17 @@ TEST(CliFormFactor, EveryKernelOnTheReferences) {
   for (const auto& c : refs::all()["cases"]) {
     if (c["kind"] != "point_polygon") continue;
     const auto& g = c["geometry"];
-    nlohmann::json q = {{"id", c["id"]}, {"point", g["receiver"]["point"]}, {"normal", g["receiver"]["normal"]},
+    nlohmann::json q = {{"id", c["id"]},
+                        {"point", g["receiver"]["point"]},
+                        {"normal", g["receiver"]["normal"]},
                         {"polygon", g["polygon"]}};
     if (!want.empty()) text += ",";
     text += q.dump();
     want.push_back(refs::number(c["value"]));
   }
   const std::string q = write("refs.json", text + "]}");
-  for (const char* k : {"", " --kernel iwanicki", " --kernel lambert", " --kernel stark-vertex", " --kernel stark-image"}) {
+  for (const char* k :
+       {"", " --kernel iwanicki", " --kernel lambert", " --kernel stark-vertex", " --kernel stark-image"}) {
     const CliRun r = run("formfactor " + q + k);
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const auto v = lines(r.out);

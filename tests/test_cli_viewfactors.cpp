@@ -29,13 +29,9 @@ const double kOpposite = 0.19982489569838738, kAdjacent = 0.20004377607540315;
 
 using cli_test::CliRun;
 
-fs::path scratch() {
-  return test_scratch::process_dir("photometria_vf_");
-}
+fs::path scratch() { return test_scratch::process_dir("photometria_vf_"); }
 
-CliRun run(const std::string& args) {
-  return cli_test::run_cli(args, (scratch() / "stderr.txt").string());
-}
+CliRun run(const std::string& args) { return cli_test::run_cli(args, (scratch() / "stderr.txt").string()); }
 
 std::string slurp(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
@@ -107,7 +103,10 @@ TEST(CliViewFactors, PatchLevelSparseAndBinaryForms) {
   double kept_row0 = 0.0;
   bool header = false;
   for (const auto& row : rows) {
-    if (row.size() == 3 && row[0] == "i") { header = true; continue; }
+    if (row.size() == 3 && row[0] == "i") {
+      header = true;
+      continue;
+    }
     if (!header) continue;
     EXPECT_GE(std::stod(row[2]), 0.03);
     if (row[0] == "0") kept_row0 += std::stod(row[2]);
@@ -138,7 +137,6 @@ TEST(CliViewFactors, PatchLevelSparseAndBinaryForms) {
   double f01 = 0.0;
   std::memcpy(&f01, b.data() + pos + 48 + 8, 8);
   EXPECT_NEAR(f01, kOpposite, 2e-8);
-
 }
 
 // --format view3d is View3D's own text output file (SaveVF, format 0; docs/viewfactors.md): a
@@ -151,7 +149,8 @@ TEST(CliViewFactors, View3dFormIsView3dsOwnTextOutput) {
   std::string want = "Photometria 0.1.0 0 0 0 6     \n1 1 1 1 1 1\n";
   ASSERT_EQ(want.find('\n'), 30u);
   for (int i = 0; i < 6; ++i) {
-    for (int j = 0; j < 6; ++j) want += std::string(j ? " " : "") + (i == j ? "0.000000" : j == kOpp[i] ? "0.199825" : "0.200044");
+    for (int j = 0; j < 6; ++j)
+      want += std::string(j ? " " : "") + (i == j ? "0.000000" : j == kOpp[i] ? "0.199825" : "0.200044");
     want += "\n";
   }
   want += "0.900 0.900 0.900 0.900 0.900 0.900\n";  // the emit field of the .vs3 S lines
@@ -173,7 +172,10 @@ TEST(CliViewFactors, View3dFormIsView3dsOwnTextOutput) {
     std::stringstream cells(line);
     double f = 0.0, sum = 0.0;
     int count = 0;
-    while (cells >> f) { sum += f; ++count; }
+    while (cells >> f) {
+      sum += f;
+      ++count;
+    }
     EXPECT_EQ(count, 24);
     EXPECT_NEAR(sum, 1.0, 24 * 5e-7) << "row " << i;
   }
@@ -183,7 +185,8 @@ TEST(CliViewFactors, View3dFormIsView3dsOwnTextOutput) {
 
   // Input without emissivities (not .vs3): 1.000 (black).
   const fs::path obj = scratch() / "squares.vf";
-  r = run("viewfactors " + std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/two_squares.obj --format view3d -o " + obj.string());
+  r = run("viewfactors " + std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/two_squares.obj --format view3d -o " +
+          obj.string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const std::string t = slurp(obj);
   EXPECT_EQ(t.substr(t.rfind('\n', t.size() - 2) + 1), "1.000 1.000\n");
@@ -268,7 +271,8 @@ TEST(CliViewFactors, SparseSceneIsStoredSparseWithTheSameFactors) {
   nlohmann::json j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["matrix"]["storage"], "sparse double");
   EXPECT_NE(j["matrix"]["reason"].get<std::string>().find("auto"), std::string::npos);
-  EXPECT_LT(j["memory_estimate"]["nonzero_pairs"].get<double>(), 0.6 * j["patches"].get<double>() * (j["patches"].get<double>() - 1));
+  EXPECT_LT(j["memory_estimate"]["nonzero_pairs"].get<double>(),
+            0.6 * j["patches"].get<double>() * (j["patches"].get<double>() - 1));
   r = run("viewfactors " + cornell + " --by patch --matrix dense -o " + d.string() + " --json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   j = nlohmann::json::parse(r.out);
@@ -320,7 +324,8 @@ TEST(CliViewFactors, UnwritablePointsOutputLeavesNeitherFile) {
   fs::remove(out);
 
   // The points output and -o cannot be one file.
-  r = run("viewfactors " + cube + " -o " + out.string() + " --points " + pts.string() + " --points-output " + out.string());
+  r = run("viewfactors " + cube + " -o " + out.string() + " --points " + pts.string() + " --points-output " +
+          out.string());
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_EQ(count_lines(r.err), 1) << r.err;
   EXPECT_TRUE(files_starting("pts_vf.csv").empty());

@@ -14,7 +14,10 @@ TEST(Quadrature, GaussLegendreIntegratesPolynomialsExactly) {
   std::vector<double> x, w;
   gauss_legendre_unit(5, x, w);
   double s0 = 0, s9 = 0;
-  for (int i = 0; i < 5; ++i) { s0 += w[i]; s9 += w[i] * std::pow(x[i], 9); }
+  for (int i = 0; i < 5; ++i) {
+    s0 += w[i];
+    s9 += w[i] * std::pow(x[i], 9);
+  }
   EXPECT_NEAR(s0, 1.0, 1e-15);
   EXPECT_NEAR(s9, 0.1, 1e-15);  // degree 2n − 1 = 9 is exact
 }
@@ -26,7 +29,7 @@ TEST(Quadrature, TriangleAndQuadRulesIntegrateAQuadratic) {
     double mean_tri = 0, mean_quad = 0;
     for (const auto& q : patch_quadrature(tri, 3, order)) mean_tri += q.weight * q.point.x() * q.point.x();
     for (const auto& q : patch_quadrature(quad, 4, order)) mean_quad += q.weight * q.point.x() * q.point.y();
-    EXPECT_NEAR(mean_tri, 2.0 / 3.0, 1e-14);         // (1/A)∫x² dA over the triangle
+    EXPECT_NEAR(mean_tri, 2.0 / 3.0, 1e-14);  // (1/A)∫x² dA over the triangle
     EXPECT_NEAR(mean_quad, 0.5 * (2.0 - 2.0 / 3.0 + 1.0 / 16.0) / 1.75, 1e-14) << order;  // ∫xy dA / A
   }
   const auto c = patch_quadrature(tri, 3, 1);
@@ -56,7 +59,8 @@ TEST(FormFactors, CubeOnePatchPerWallConvergesWithQuadrature) {
     solve_radiosity(F, E, rho, ChannelMatrix::Zero(6, 3), true, {1e-14, 1000}, B);
     double error = 0;
     for (int i = 0; i < 6; ++i)
-      error = std::max(error, double(std::abs((B(i, 0) - refs::number(ref["value"][i])) / refs::number(ref["value"][i]))));
+      error =
+          std::max(error, double(std::abs((B(i, 0) - refs::number(ref["value"][i])) / refs::number(ref["value"][i]))));
     EXPECT_LT(error, previous_error) << "order " << order;
     previous_error = error;
     if (order == 16) {
@@ -106,11 +110,10 @@ TEST(FormFactors, RoomWithTableIsReciprocalAndBounded) {
         EXPECT_GE(F(i, j), 0.0);
         EXPECT_LE(F(i, j), 1.0);
         const double ai = mesh.patches[i].area * F(i, j), aj = mesh.patches[j].area * F(j, i);
-        if (std::max(ai, aj) > 1e-3 * mesh.patches[i].area) worst = std::max(worst, std::abs(ai - aj) / std::max(ai, aj));
+        if (std::max(ai, aj) > 1e-3 * mesh.patches[i].area)
+          worst = std::max(worst, std::abs(ai - aj) / std::max(ai, aj));
       }
     }
-    if (method == VisibilityMethod::Exact) {
-      EXPECT_LT(worst, 0.03);
-    }
+    if (method == VisibilityMethod::Exact) { EXPECT_LT(worst, 0.03); }
   }
 }

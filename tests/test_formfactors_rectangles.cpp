@@ -45,14 +45,20 @@ struct Box {
 Box box_of(const PatchMesh& mesh, int p) {
   Box b;
   const Patch& pa = mesh.patches[p];
-  for (int k = 0; k < 3; ++k) { b.lo[k] = 1e30L; b.hi[k] = -1e30L; }
+  for (int k = 0; k < 3; ++k) {
+    b.lo[k] = 1e30L;
+    b.hi[k] = -1e30L;
+  }
   for (int c = 0; c < pa.corner_count; ++c)
     for (int k = 0; k < 3; ++k) {
       b.lo[k] = std::min<ld>(b.lo[k], mesh.points[pa.corners[c]][k]);
       b.hi[k] = std::max<ld>(b.hi[k], mesh.points[pa.corners[c]][k]);
     }
   for (int k = 0; k < 3; ++k)
-    if (std::abs(pa.normal[k]) > 0.5) { b.axis = k; b.sign = pa.normal[k] > 0 ? 1 : -1; }
+    if (std::abs(pa.normal[k]) > 0.5) {
+      b.axis = k;
+      b.sign = pa.normal[k] > 0 ? 1 : -1;
+    }
   b.plane = b.lo[b.axis];
   return b;
 }
@@ -155,10 +161,10 @@ void add_polygon(PatchMesh& m, const std::vector<Vec3>& corners) {
 }
 
 struct Comparison {
-  double max_rel = 0.0;      // over pairs with F > 1e-6 (either direction)
+  double max_rel = 0.0;  // over pairs with F > 1e-6 (either direction)
   double max_abs_small = 0.0;
-  double max_row = 0.0;      // max |Σ_j F_ij − 1|
-  bool reciprocal = true;    // area_factor(i, j) == area_factor(j, i) bit for bit
+  double max_row = 0.0;    // max |Σ_j F_ij − 1|
+  bool reciprocal = true;  // area_factor(i, j) == area_factor(j, i) bit for bit
   bool all_eligible = true;
 };
 
@@ -178,8 +184,8 @@ Comparison compare_all(const PatchMesh& mesh, const AlignedRectangles& ar) {
       const double fi = double(want) / mesh.patches[i].area, fj = double(want) / mesh.patches[j].area;
       if (std::max(fi, fj) > 1e-6) c.max_rel = std::max(c.max_rel, double(std::abs(got - want) / want));
       else
-        c.max_abs_small = std::max(c.max_abs_small, std::abs(got - double(want)) /
-                                                        std::min(mesh.patches[i].area, mesh.patches[j].area));
+        c.max_abs_small = std::max(c.max_abs_small,
+                                   std::abs(got - double(want)) / std::min(mesh.patches[i].area, mesh.patches[j].area));
       row += got;
     }
     c.max_row = std::max(c.max_row, double(std::abs(row / mesh.patches[i].area - 1)));
@@ -357,7 +363,7 @@ TEST(AlignedRectangles, StraddlingPerpendicularPairIsClippedAtTheCommonLine) {
   std::vector<double> t, w;
   gauss_legendre_unit(12, t, w);
   auto graded = [&](double a, double b, bool to_a, bool to_b) {  // (point, weight) on [a, b]
-    std::vector<std::pair<double, double>> edges;                 // sub-interval ends
+    std::vector<std::pair<double, double>> edges;                // sub-interval ends
     std::vector<double> cuts = {a, b};
     const double mid = (a + b) / 2;
     for (int k = 1; k <= 24; ++k) {
@@ -414,7 +420,7 @@ TEST(AlignedRectangles, StraddlingGridsAddUpToTheWholePair) {
     const int p0 = mesh.size();
     grid(mesh, 2, +1, 0.5, 0.3, 1.5, 0.0, 1.0);  // x cells of 0.24: 1.2 inside [1.02, 1.26]
     const int q0 = mesh.size();
-    grid(mesh, 0, -1, 1.2, y0, y1, 0.1, 0.9);    // z cells of 0.16: 0.5 inside [0.42, 0.58]
+    grid(mesh, 0, -1, 1.2, y0, y1, 0.1, 0.9);  // z cells of 0.16: 0.5 inside [0.42, 0.58]
     const AlignedRectangles ar(mesh), none(mesh, 0);
     EXPECT_EQ(ar.summary().tables_interval + ar.summary().tables_corner, 1);
     EXPECT_EQ(ar.summary().tables_corner, with_whole ? 1 : 0);
@@ -437,15 +443,15 @@ TEST(AlignedRectangles, StraddlingGridsAddUpToTheWholePair) {
 
 TEST(AlignedRectangles, TrianglesSkewQuadsAndOtherFramesAreNotEligible) {
   PatchMesh mesh;
-  add_rect(mesh, 2, +1, 0.0, 0.0, 1.0, 0.0, 1.0);                                       // 0: floor
-  add_rect(mesh, 0, -1, 1.0, 0.0, 1.0, 0.0, 1.0);                                       // 1: wall
-  add_polygon(mesh, {{0, 0, 1}, {0, 1, 1}, {1, 0, 1}});                                  // 2: triangle
-  add_polygon(mesh, {{0, 0, 1}, {0, 1, 1}, {1, 1.2, 1}, {1, -0.2, 1}});                  // 3: trapezoid
-  add_polygon(mesh, {{0, 0, 1}, {0.3, 1, 1}, {1.3, 1, 1}, {1, 0, 1}});                   // 4: parallelogram
+  add_rect(mesh, 2, +1, 0.0, 0.0, 1.0, 0.0, 1.0);                        // 0: floor
+  add_rect(mesh, 0, -1, 1.0, 0.0, 1.0, 0.0, 1.0);                        // 1: wall
+  add_polygon(mesh, {{0, 0, 1}, {0, 1, 1}, {1, 0, 1}});                  // 2: triangle
+  add_polygon(mesh, {{0, 0, 1}, {0, 1, 1}, {1, 1.2, 1}, {1, -0.2, 1}});  // 3: trapezoid
+  add_polygon(mesh, {{0, 0, 1}, {0.3, 1, 1}, {1.3, 1, 1}, {1, 0, 1}});   // 4: parallelogram
   const double c = std::cos(0.3), s = std::sin(0.3);
-  add_polygon(mesh, {{0, 0, 1}, {-s, c, 1}, {c - s, s + c, 1}, {c, s, 1}});              // 5: rotated square
-  add_polygon(mesh, {{0, 0, 2}, {0, 1, 2}, {1, 1, 2}, {1, 0, 2 + 1e-6}});                // 6: non-planar
-  add_rect(mesh, 1, +1, 0.0, 0.0, 1.0, 0.0, 1.0);                                       // 7: wall y = 0
+  add_polygon(mesh, {{0, 0, 1}, {-s, c, 1}, {c - s, s + c, 1}, {c, s, 1}});  // 5: rotated square
+  add_polygon(mesh, {{0, 0, 2}, {0, 1, 2}, {1, 1, 2}, {1, 0, 2 + 1e-6}});    // 6: non-planar
+  add_rect(mesh, 1, +1, 0.0, 0.0, 1.0, 0.0, 1.0);                            // 7: wall y = 0
   const AlignedRectangles ar(mesh);
   EXPECT_TRUE(ar.eligible(0, 1));
   EXPECT_TRUE(ar.eligible(0, 7));
@@ -517,10 +523,11 @@ TEST(AlignedRectangles, AccuracyAt32And64PerWall) {
     EXPECT_LE(far_rel, n == 32 ? 1e-11 : 1e-10);
     EXPECT_LE(std::max(max_abs, far_abs), 1e-15);
     EXPECT_LE(max_row, 1e-12);
-    std::printf("cube %d x %d, %d sampled rows (%zu pairs with F > 1e-6) vs long-double reference: max rel %.3g, "
-                "median %.3g, 99%% %.3g, max |F error| %.3g; 200 far pairs vs 8^4 Gauss: max rel (%d with F > 1e-6) "
-                "%.3g, max |F error| %.3g; max |row - 1| %.3g; tables %.1f MB\n",
-                n, n, rows, rel.size(), max_rel, rel[rel.size() / 2], rel[rel.size() * 99 / 100], max_abs, far_big,
-                far_rel, far_abs, max_row, ar.table_bytes() / 1e6);
+    std::printf(
+        "cube %d x %d, %d sampled rows (%zu pairs with F > 1e-6) vs long-double reference: max rel %.3g, "
+        "median %.3g, 99%% %.3g, max |F error| %.3g; 200 far pairs vs 8^4 Gauss: max rel (%d with F > 1e-6) "
+        "%.3g, max |F error| %.3g; max |row - 1| %.3g; tables %.1f MB\n",
+        n, n, rows, rel.size(), max_rel, rel[rel.size() / 2], rel[rel.size() * 99 / 100], max_abs, far_big, far_rel,
+        far_abs, max_row, ar.table_bytes() / 1e6);
   }
 }

@@ -82,7 +82,11 @@ TEST(FormFactorStorage, SparseStoresOnlyNonZerosAndSetRowReplaces) {
   EXPECT_EQ(f(2, 3), 0.0);
   EXPECT_EQ(f(0, 0), 0.0);
   int visited = 0;
-  f.for_each_in_row(2, [&](int j, double v) { ++visited; EXPECT_EQ(j, 0); EXPECT_EQ(v, 0.125); });
+  f.for_each_in_row(2, [&](int j, double v) {
+    ++visited;
+    EXPECT_EQ(j, 0);
+    EXPECT_EQ(v, 0.125);
+  });
   EXPECT_EQ(visited, 1);
 }
 
@@ -191,7 +195,8 @@ TEST(FormFactorStorage, FillAndSolversAgreeAcrossLayouts) {
         so.method = m;
         const SolverReport rep = solve_radiosity(F, E, R, ChannelMatrix::Zero(n, 3), true, so, B);
         EXPECT_TRUE(rep.converged) << method_name(m);
-        EXPECT_LE(((B - Bref).cwiseAbs().array() / Bref.array()).maxCoeff(), precision == MatrixPrecision::Float ? 1e-6 : 1e-9)
+        EXPECT_LE(((B - Bref).cwiseAbs().array() / Bref.array()).maxCoeff(),
+                  precision == MatrixPrecision::Float ? 1e-6 : 1e-9)
             << method_name(m);
       }
     }

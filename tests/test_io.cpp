@@ -6,8 +6,8 @@
 
 #include "io/atomic_file.h"
 #include "io/vtu.h"
-#include "util/error.h"
 #include "scratch_dir.h"
+#include "util/error.h"
 
 using namespace photometria;
 namespace fs = std::filesystem;

@@ -6,8 +6,8 @@
 #include <fstream>
 
 #include "io/queries.h"
-#include "util/error.h"
 #include "scratch_dir.h"
+#include "util/error.h"
 
 using namespace photometria;
 using nlohmann::json;
@@ -58,7 +58,8 @@ TEST(Queries, ErrorsNameTheQueryIdAndTheValue) {
   EXPECT_NE(m.find("(id \"in\"): the point lies inside the sphere"), std::string::npos) << m;
   m = error_of(q("n0", R"("point": [0,0,0], "normal": [0,0,0], "polygon": [[0,0,1],[1,0,1],[1,1,1]])"));
   EXPECT_NE(m.find("(id \"n0\"): 'normal' must be a non-zero vector"), std::string::npos) << m;
-  m = error_of(q("two", base + R"(, "polygon": [[0,0,1],[1,0,1],[1,1,1]], "sphere": {"center": [0,0,3], "radius": 1})"));
+  m = error_of(
+      q("two", base + R"(, "polygon": [[0,0,1],[1,0,1],[1,1,1]], "sphere": {"center": [0,0,3], "radius": 1})"));
   EXPECT_NE(m.find("(id \"two\"): needs exactly one of"), std::string::npos) << m;
   m = error_of(q("p2", base + R"(, "polygon": [[0,0,1],[1,0,1]])"));
   EXPECT_NE(m.find("(id \"p2\"): 'polygon' must be an array of at least 3 vertices"), std::string::npos) << m;
@@ -90,9 +91,7 @@ TEST(Queries, LoadReportsTheLineOfBadJsonAndMissingFiles) {
   try {
     load_queries((dir / "missing.json").string());
     FAIL() << "no error";
-  } catch (const Error& e) {
-    EXPECT_EQ(e.exit_code(), 2);
-  }
+  } catch (const Error& e) { EXPECT_EQ(e.exit_code(), 2); }
   std::filesystem::remove_all(dir);
 }
 

@@ -79,10 +79,11 @@ TEST(Lambert, ReceiverInsideThePolygonPlaneSeesNothing) {
 
 TEST(Lambert, ClosedRoomSumsToOne) {
   // From any interior point on the floor, the five other walls of a unit cube cover the hemisphere.
-  const std::vector<Polygon> walls = {
-      {{0, 0, 1}, {0, 1, 1}, {1, 1, 1}, {1, 0, 1}}, {{0, 0, 0}, {0, 0, 1}, {1, 0, 1}, {1, 0, 0}},
-      {{1, 0, 0}, {1, 0, 1}, {1, 1, 1}, {1, 1, 0}}, {{1, 1, 0}, {1, 1, 1}, {0, 1, 1}, {0, 1, 0}},
-      {{0, 1, 0}, {0, 1, 1}, {0, 0, 1}, {0, 0, 0}}};
+  const std::vector<Polygon> walls = {{{0, 0, 1}, {0, 1, 1}, {1, 1, 1}, {1, 0, 1}},
+                                      {{0, 0, 0}, {0, 0, 1}, {1, 0, 1}, {1, 0, 0}},
+                                      {{1, 0, 0}, {1, 0, 1}, {1, 1, 1}, {1, 1, 0}},
+                                      {{1, 1, 0}, {1, 1, 1}, {0, 1, 1}, {0, 1, 0}},
+                                      {{0, 1, 0}, {0, 1, 1}, {0, 0, 1}, {0, 0, 0}}};
   for (const Vec3& p : {Vec3(0.5, 0.5, 0), Vec3(0.01, 0.3, 0), Vec3(1e-12, 1e-12, 0), Vec3(0, 0.5, 0), Vec3(0, 0, 0)}) {
     const Vec3 approach = (Vec3(0.5, 0.5, 0) - p).normalized();
     double sum = 0.0;

@@ -31,9 +31,10 @@ struct Agreement {
   double max_rel_small = 0.0;  // the same over 0 < scalar < 1e-3
   double max_abs_small = 0.0;  // max |batch − scalar| over scalar < 1e-3
   void print(const char* what) const {
-    std::printf("[ batch    ] %s: %ld pairs, %ld nonzero, %ld scalar fallbacks; max rel diff %.2e (F >= 1e-3), "
-                "%.2e rel / %.2e abs (F < 1e-3)\n",
-                what, compared, nonzero, scalar_calls, max_rel, max_rel_small, max_abs_small);
+    std::printf(
+        "[ batch    ] %s: %ld pairs, %ld nonzero, %ld scalar fallbacks; max rel diff %.2e (F >= 1e-3), "
+        "%.2e rel / %.2e abs (F < 1e-3)\n",
+        what, compared, nonzero, scalar_calls, max_rel, max_rel_small, max_abs_small);
   }
 };
 
@@ -65,8 +66,7 @@ Vec3 random_unit(std::mt19937_64& rng) {
 
 // A star-shaped triangle or quad (possibly non-convex) around `centre` in a random plane, radii
 // in [0.2, 1.2]·size; `bend` lifts vertices off the plane (non-planar quads).
-Polygon random_polygon(std::mt19937_64& rng, const Vec3& centre, int n, double size, double bend,
-                       const Vec3& normal) {
+Polygon random_polygon(std::mt19937_64& rng, const Vec3& centre, int n, double size, double bend, const Vec3& normal) {
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   const Vec3 t1 = normal.unitOrthogonal(), t2 = normal.cross(t1);
   Polygon p;
@@ -133,7 +133,10 @@ TEST(LambertBatch, SimdAtan2IsAccurateToAFewTenthsOfAnUlp) {
       case 0: y[i] = std::abs(u(rng)), x[i] = u(rng); break;
       case 1: y[i] = std::pow(10.0, decade(rng)) * std::abs(u(rng)), x[i] = u(rng); break;
       case 2: y[i] = std::abs(u(rng)), x[i] = std::pow(10.0, decade(rng)) * u(rng); break;
-      case 3: { const double t = angle(rng); y[i] = std::sin(t), x[i] = std::cos(t); } break;
+      case 3: {
+        const double t = angle(rng);
+        y[i] = std::sin(t), x[i] = std::cos(t);
+      } break;
       default: y[i] = 1e-8 * std::abs(u(rng)), x[i] = -1.0 + 1e-8 * u(rng); break;  // Θ -> π
     }
   }
@@ -149,8 +152,10 @@ TEST(LambertBatch, SimdAtan2IsAccurateToAFewTenthsOfAnUlp) {
     max_ulp_xsimd = std::max(max_ulp_xsimd, static_cast<double>(std::abs((with_xsimd[i] - ref) / ulp)));
     same_as_libm += got[i] == std::atan2(y[i], x[i]);
   }
-  std::printf("[ batch    ] atan2: kernel max %.2f ulp (equal to std::atan2 in %.2f%%), xsimd::atan2 max %.2f ulp, "
-              "%d pairs\n", max_ulp, 100.0 * same_as_libm / n, max_ulp_xsimd, n);
+  std::printf(
+      "[ batch    ] atan2: kernel max %.2f ulp (equal to std::atan2 in %.2f%%), xsimd::atan2 max %.2f ulp, "
+      "%d pairs\n",
+      max_ulp, 100.0 * same_as_libm / n, max_ulp_xsimd, n);
   EXPECT_LE(max_ulp, 0.7);
   EXPECT_GE(same_as_libm, 0.98 * n);
   const double ys[] = {0.0, 0.0, 1.0, 2.5, 1e-300, 1.0, 1e300};
@@ -175,7 +180,8 @@ TEST(LambertBatch, AgreesWithTheScalarKernelOnRandomConfigurations) {
   ASSERT_EQ(batch.size, 1499);
   ASSERT_EQ(batch.padded % PolygonBatch::kPadding, 0);
   Agreement a;
-  for (int i = 0; i < 300; ++i) compare({Vec3(u(rng), u(rng), u(rng)), random_unit(rng)}, batch, a, "random " + std::to_string(i));
+  for (int i = 0; i < 300; ++i)
+    compare({Vec3(u(rng), u(rng), u(rng)), random_unit(rng)}, batch, a, "random " + std::to_string(i));
   a.print("random");
   EXPECT_GT(a.nonzero, a.compared / 5);
   if (std::string(lambert_batch_isa()) == "avx2") {
@@ -191,7 +197,8 @@ TEST(LambertBatch, AgreesAtA1e6Offset) {
   const Vec3 off(1e6, -2e6, 3e6);
   const PolygonBatch batch(random_polygons(rng, 501, off));
   Agreement a;
-  for (int i = 0; i < 200; ++i) compare({off + Vec3(u(rng), u(rng), u(rng)), random_unit(rng)}, batch, a, "offset " + std::to_string(i));
+  for (int i = 0; i < 200; ++i)
+    compare({off + Vec3(u(rng), u(rng), u(rng)), random_unit(rng)}, batch, a, "offset " + std::to_string(i));
   a.print("1e6 offset");
   EXPECT_GT(a.nonzero, a.compared / 5);
 }
@@ -225,9 +232,7 @@ TEST(LambertBatch, AgreesForFarPolygonsWithTinyFormFactors) {
   std::printf("[ batch    ] far polygons: F in [%.1e, %.1e]\n", fmin, fmax);
   EXPECT_LT(fmin, 1e-12);
   EXPECT_EQ(a.nonzero, a.compared);
-  if (std::string(lambert_batch_isa()) == "avx2") {
-    EXPECT_LT(a.scalar_calls, a.compared / 100);
-  }
+  if (std::string(lambert_batch_isa()) == "avx2") { EXPECT_LT(a.scalar_calls, a.compared / 100); }
 }
 
 // Receivers exactly in the floor's plane (inside, outside, on edges and vertices, dyadic so that
@@ -239,7 +244,9 @@ TEST(LambertBatch, ReceiversOnAndNearThePolygonPlane) {
     for (int j = 0; j < 4; ++j) {  // the floor [-1, 1]² in 16 quads and 16 triangles
       const double x0 = -1 + 0.5 * i, y0 = -1 + 0.5 * j, x1 = x0 + 0.5, y1 = y0 + 0.5;
       if ((i + j) % 2) polys.push_back({{x0, y0, 0}, {x1, y0, 0}, {x1, y1, 0}, {x0, y1, 0}});
-      else polys.push_back({{x0, y0, 0}, {x1, y0, 0}, {x1, y1, 0}}), polys.push_back({{x0, y0, 0}, {x1, y1, 0}, {x0, y1, 0}});
+      else
+        polys.push_back({{x0, y0, 0}, {x1, y0, 0}, {x1, y1, 0}}),
+            polys.push_back({{x0, y0, 0}, {x1, y1, 0}, {x0, y1, 0}});
     }
   polys.push_back({{-1, -1, 0.5}, {-1, 1, 0.5}, {1, 1, 0.5}, {1, -1, 0.5}});  // a ceiling, for SIMD lanes
   const PolygonBatch batch(polys);
@@ -266,9 +273,9 @@ TEST(LambertBatch, FallbackLanesMixedWithSimdLanes) {
   const Vec3 pts[] = {{0.5, 0.5, 0}, {0.3, 0.6, 0}, {0.25, 0.6, 0}, {0.25, 0.25, 0}, {0.0, 0.4, 0}, {0.1, 0.2, 1e-9}};
   std::vector<Receiver> recv;
   for (const Vec3& p : pts) recv.push_back({p, Vec3::UnitZ(), (Vec3(0.5, 0.5, 0) - p).normalized()});
-  recv.push_back({{0, 0.3, 0.5}, Vec3::UnitX()});   // on the wall x = 0
-  recv.push_back({{0, 0.5, 0.5}, Vec3::UnitX()});   // on a patch corner of that wall
-  recv.push_back({{0.4, 1, 0.7}, -Vec3::UnitY()});  // on the wall y = 1
+  recv.push_back({{0, 0.3, 0.5}, Vec3::UnitX()});        // on the wall x = 0
+  recv.push_back({{0, 0.5, 0.5}, Vec3::UnitX()});        // on a patch corner of that wall
+  recv.push_back({{0.4, 1, 0.7}, -Vec3::UnitY()});       // on the wall y = 1
   recv.push_back({{0.5, 0.4, 0.3}, Vec3(0.6, 0, 0.8)});  // inside, tilted
   recv.push_back({{0.2, 0.7, 0.6}, Vec3(-0.48, 0.6, 0.64)});
   recv.push_back({{0.9, 0.1, 0.5}, Vec3(0, -0.6, -0.8)});
@@ -316,7 +323,8 @@ TEST(LambertBatch, SubRangesAndSizesThatAreNoMultipleOfTheSimdWidth) {
     lambert_form_factors(r, batch, out.data() + 1);
     EXPECT_EQ(out.front(), -7.0);
     EXPECT_EQ(out.back(), -7.0);
-    for (int k = 0; k < n; ++k) EXPECT_TRUE(agrees(out[static_cast<size_t>(k) + 1], lambert_form_factor(r, polys[static_cast<size_t>(k)])));
+    for (int k = 0; k < n; ++k)
+      EXPECT_TRUE(agrees(out[static_cast<size_t>(k) + 1], lambert_form_factor(r, polys[static_cast<size_t>(k)])));
   }
   const PolygonBatch batch(polys);
   std::vector<double> full(37);
@@ -327,7 +335,8 @@ TEST(LambertBatch, SubRangesAndSizesThatAreNoMultipleOfTheSimdWidth) {
       lambert_form_factors(r, batch, begin, end, out.data() + 1);
       ASSERT_EQ(out.front(), -7.0) << begin << ", " << end;
       ASSERT_EQ(out.back(), -7.0) << begin << ", " << end;
-      for (int k = begin; k < end; ++k) ASSERT_EQ(out[static_cast<size_t>(k - begin) + 1], full[static_cast<size_t>(k)]) << begin << ", " << end;
+      for (int k = begin; k < end; ++k)
+        ASSERT_EQ(out[static_cast<size_t>(k - begin) + 1], full[static_cast<size_t>(k)]) << begin << ", " << end;
     }
   double dummy = 0;
   EXPECT_THROW(lambert_form_factors(r, batch, 0, 38, &dummy), std::out_of_range);
@@ -339,14 +348,14 @@ TEST(LambertBatch, SubRangesAndSizesThatAreNoMultipleOfTheSimdWidth) {
 TEST(LambertBatch, DegenerateAndNonFinitePolygonsTakeTheScalarKernel) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const std::vector<Polygon> polys = {
-      {{0, 0, 1}, {1, 0, 1}, {2, 0, 1}},                  // collinear
-      {{0, 0, 1}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}},       // one point
-      {{0, 0, 1}, {1, 0, 1}},                             // two vertices
-      {},                                                  // none
-      {{0, 0, 1}, {nan, 0, 1}, {1, 1, 1}},                // NaN
+      {{0, 0, 1}, {1, 0, 1}, {2, 0, 1}},                                             // collinear
+      {{0, 0, 1}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}},                                  // one point
+      {{0, 0, 1}, {1, 0, 1}},                                                        // two vertices
+      {},                                                                            // none
+      {{0, 0, 1}, {nan, 0, 1}, {1, 1, 1}},                                           // NaN
       {{0, 0, 1e300}, {0, 1e300, 1e300}, {1e300, 1e300, 1e300}, {1e300, 0, 1e300}},  // Newell overflows
-      {{0, 1, 1}, {1, 1, 1}, {1, 1, 1}, {1, 0, 1}},       // a repeated vertex: a valid triangle
-      {{0, 0, 1}, {0, 1, 1}, {1, 1, 1}, {1, 0, 1}},       // a plain quad
+      {{0, 1, 1}, {1, 1, 1}, {1, 1, 1}, {1, 0, 1}},  // a repeated vertex: a valid triangle
+      {{0, 0, 1}, {0, 1, 1}, {1, 1, 1}, {1, 0, 1}},  // a plain quad
   };
   const PolygonBatch batch(polys);
   EXPECT_EQ(batch.kind[0], 0.0);
@@ -422,17 +431,13 @@ TEST(LambertBatch, StronglyCancellingTermsTakeTheScalarKernel) {
     ASSERT_GT(s, 0.0);
     ASSERT_LT(s, 1e-3);
     EXPECT_EQ(f, s) << h;
-    if (std::string(lambert_batch_isa()) == "avx2") {
-      EXPECT_EQ(calls, 1) << h;
-    }
+    if (std::string(lambert_batch_isa()) == "avx2") { EXPECT_EQ(calls, 1) << h; }
   }
   double f = -1.0;
   const Receiver high{Vec3(-0.5, 0.5, 0.5), n};
   const int calls = lambert_form_factors(high, batch, &f);
   EXPECT_TRUE(agrees(f, lambert_form_factor(high, floor)));
-  if (std::string(lambert_batch_isa()) == "avx2") {
-    EXPECT_EQ(calls, 0);
-  }
+  if (std::string(lambert_batch_isa()) == "avx2") { EXPECT_EQ(calls, 0); }
 }
 
 // A receiver at a vertex of its own wall's grid (the per-vertex gather): the coplanar patches

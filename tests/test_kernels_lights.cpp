@@ -34,8 +34,9 @@ TEST(SphereLight, EveryReference) {
   for (const auto& c : refs::all()["cases"]) {
     if (c["kind"] != "sphere_light") continue;
     const auto& g = c["geometry"];
-    expect_rel(sphere_form_factor(receiver_of(g), refs::vec(g["sphere"]["center"]), g["sphere"]["radius"].get<double>()),
-               refs::number(c["value"]), 1e-12, c["id"].get<std::string>());
+    expect_rel(
+        sphere_form_factor(receiver_of(g), refs::vec(g["sphere"]["center"]), g["sphere"]["radius"].get<double>()),
+        refs::number(c["value"]), 1e-12, c["id"].get<std::string>());
     ++n;
   }
   EXPECT_EQ(n, 7);
@@ -58,7 +59,10 @@ TEST(DistantLight, EveryReference) {
 // mpmath at 40 digits (polar angle θ around the axis by Gauss–Legendre/tanh-sinh, the azimuth in
 // closed form, split at the kinks θ = |β| and π − |β|). σ = half-angle, β = elevation of the axis.
 TEST(SphericalCap, CrossingTheHorizonKeepsItsDigits) {
-  struct Case { const char* name; long double sigma, beta, value; };
+  struct Case {
+    const char* name;
+    long double sigma, beta, value;
+  };
   const Case cases[] = {
       {"sun disc, centre 0.002 rad above the horizon", 0.00465L, 0.002L, 4.87858983277202680248587078006e-8L},
       {"sun disc, centre 0.002 rad below the horizon", 0.00465L, -0.002L, 5.54123884494561435186810805207e-9L},
@@ -70,7 +74,8 @@ TEST(SphericalCap, CrossingTheHorizonKeepsItsDigits) {
        0.235279124533045096344837249578L},
   };
   for (const Case& c : cases) {
-    const double f = spherical_cap_form_factor(double(std::sin(c.sigma)), double(std::cos(c.sigma)), double(std::sin(c.beta)));
+    const double f =
+        spherical_cap_form_factor(double(std::sin(c.sigma)), double(std::cos(c.sigma)), double(std::sin(c.beta)));
     expect_rel(f, c.value, 1e-12, c.name);
     // The same through the distant light: cone axis at elevation β seen by an upward receiver.
     const Vec3 axis(double(std::cos(c.beta)), 0.0, double(std::sin(c.beta)));
@@ -124,13 +129,15 @@ TEST(DistantLight, UsdLuxNormalization) {
   }
   for (double angle : {200.0, 270.0, 359.0}) {
     const double s = std::sin(angle / 2 * M_PI / 180);
-    EXPECT_NEAR(distant_irradiance(facing, Vec3(0, 0.6, 0.8), angle, 1000.0, true), 1000.0 / (2 - s * s), 1e-9) << angle;
+    EXPECT_NEAR(distant_irradiance(facing, Vec3(0, 0.6, 0.8), angle, 1000.0, true), 1000.0 / (2 - s * s), 1e-9)
+        << angle;
   }
   EXPECT_NEAR(distant_size_factor(0.0), 1.0, 0);
   EXPECT_NEAR(distant_size_factor(180.0), M_PI, 1e-15);
   EXPECT_NEAR(distant_size_factor(240.0), M_PI * (2 - 0.75), 1e-14);
   // Without normalize, intensity is the radiance: E = π F L; a delta light (angle 0): E = I cos α.
-  EXPECT_NEAR(distant_irradiance({Vec3::Zero(), Vec3::UnitZ()}, Vec3::UnitZ(), 60.0, 2.0, false), 2.0 * M_PI * 0.25, 1e-14);
+  EXPECT_NEAR(distant_irradiance({Vec3::Zero(), Vec3::UnitZ()}, Vec3::UnitZ(), 60.0, 2.0, false), 2.0 * M_PI * 0.25,
+              1e-14);
   EXPECT_NEAR(distant_irradiance({Vec3::Zero(), Vec3::UnitZ()}, Vec3(0.6, 0, 0.8), 0.0, 5.0, false), 4.0, 1e-15);
   EXPECT_EQ(distant_irradiance({Vec3::Zero(), Vec3::UnitZ()}, Vec3(0.6, 0, -0.8), 0.0, 5.0, true), 0.0);
 }
@@ -160,8 +167,9 @@ TEST(Lights, ErrorsNameTheLightIndex) {
     }
     return std::string("no error");
   };
-  EXPECT_NE(message(R"([{"type": "sphere", "center": [0,0,1], "radius": -1, "intensity": 1}])").find("lights[0]: 'radius'"),
-            std::string::npos);
+  EXPECT_NE(
+      message(R"([{"type": "sphere", "center": [0,0,1], "radius": -1, "intensity": 1}])").find("lights[0]: 'radius'"),
+      std::string::npos);
   EXPECT_NE(message(R"([{"type":"sphere","center":[0,0,1],"radius":1,"intensity":1},{"type":"spot","intensity":1}])")
                 .find("lights[1]: 'type'"),
             std::string::npos);
@@ -169,7 +177,9 @@ TEST(Lights, ErrorsNameTheLightIndex) {
             std::string::npos);
   EXPECT_NE(message(R"([{"type": "distant", "direction": [0,0,1], "angle": 400, "intensity": 1}])").find("'angle'"),
             std::string::npos);
-  EXPECT_NE(message(R"([{"type": "distant", "direction": [0,0,1], "intensity": 1, "colour": 1}])").find("unknown key 'colour'"),
+  EXPECT_NE(message(R"([{"type": "distant", "direction": [0,0,1], "intensity": 1, "colour": 1}])")
+                .find("unknown key 'colour'"),
             std::string::npos);
-  EXPECT_NE(message(R"([{"type": "sphere", "center": [0,0,1], "radius": 1}])").find("'intensity' is missing"), std::string::npos);
+  EXPECT_NE(message(R"([{"type": "sphere", "center": [0,0,1], "radius": 1}])").find("'intensity' is missing"),
+            std::string::npos);
 }

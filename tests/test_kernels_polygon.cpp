@@ -86,10 +86,10 @@ constexpr double kEps = std::numeric_limits<double>::epsilon();
 //    (area/(π|c|²))/F ≈ 1/(cos θ_receiver cos θ_polygon), the conditioning of F itself.
 struct Conditioning {
   bool visible = false;
-  LD F = 0;                  // Lambert in long double on the visible polygon
+  LD F = 0;  // Lambert in long double on the visible polygon
   double kappa_direct = 0;
   double kappa_centred = 0;
-  bool centred = false;      // the centred evaluations apply
+  bool centred = false;  // the centred evaluations apply
   bool clipped = false;
 };
 
@@ -207,8 +207,9 @@ TEST(PolygonKernels, ExactKernelsAgreeOnThousandsOfRandomConfigurations) {
       p = grid(p);
       for (Vec3& v : poly) v = grid(v);
     }
-    const Vec3 offset = dyadic ? Vec3(std::round(u(rng) * 0x1p20), std::round(u(rng) * 0x1p20), std::round(u(rng) * 0x1p20))
-                               : Vec3(1e6 * u(rng), 1e6 * u(rng), 1e6 * u(rng));
+    const Vec3 offset =
+        dyadic ? Vec3(std::round(u(rng) * 0x1p20), std::round(u(rng) * 0x1p20), std::round(u(rng) * 0x1p20))
+               : Vec3(1e6 * u(rng), 1e6 * u(rng), 1e6 * u(rng));
     Polygon moved;
     for (const Vec3& v : poly) moved.push_back(v + offset);
     const Receiver r{p, normal}, r_moved{p + offset, normal};
@@ -261,8 +262,8 @@ TEST(PolygonKernels, ExactKernelsAgreeOnThousandsOfRandomConfigurations) {
           worst_ratio = std::max(worst_ratio, diff / (tol * scale));
           EXPECT_LE(diff, tol * scale) << kernel_info(kExact[a]).name << " vs " << kernel_info(kExact[b]).name
                                        << " trial " << trial << (shifted ? " (shifted)" : "") << ": " << f[a] << " vs "
-                                       << f[b] << ", kappa direct " << c.kappa_direct << " centred "
-                                       << c.kappa_centred << (c.centred ? " (centred)" : "");
+                                       << f[b] << ", kappa direct " << c.kappa_direct << " centred " << c.kappa_centred
+                                       << (c.centred ? " (centred)" : "");
         }
       }
       if (shifted && dyadic) {  // the same geometry exactly: the same answer
@@ -273,29 +274,31 @@ TEST(PolygonKernels, ExactKernelsAgreeOnThousandsOfRandomConfigurations) {
       ++compared;
     }
   }
-  std::printf("[ stats    ] %d configurations compared (%d with F > 0: %d clipped, %d far, %d with F < 1e-10; %d with F = 0), "
-              "%d pairs; %d held to 1e-12 (worst %.2e relative); relaxed to C eps kappa: %d lambert-far pairs, "
-              "%d of %d pairs without lambert (ill-conditioned; %d beyond 1e-10); worst disagreement/tolerance %.2f\n",
-              compared, nonzero, clipped, far, tiny, zero, pairs, strict_pairs, worst_strict, lambert_far_pairs,
-              ill_conditioned_pairs, other_pairs, beyond_1e10, worst_ratio);
+  std::printf(
+      "[ stats    ] %d configurations compared (%d with F > 0: %d clipped, %d far, %d with F < 1e-10; %d with F = 0), "
+      "%d pairs; %d held to 1e-12 (worst %.2e relative); relaxed to C eps kappa: %d lambert-far pairs, "
+      "%d of %d pairs without lambert (ill-conditioned; %d beyond 1e-10); worst disagreement/tolerance %.2f\n",
+      compared, nonzero, clipped, far, tiny, zero, pairs, strict_pairs, worst_strict, lambert_far_pairs,
+      ill_conditioned_pairs, other_pairs, beyond_1e10, worst_ratio);
   EXPECT_GT(compared, 15000);
   EXPECT_GT(nonzero, 7000);
-  EXPECT_GT(clipped, 800);     // the horizon-clipping path is exercised
-  EXPECT_GT(far, 2500);        // and the far field, F down to ~1e-16
+  EXPECT_GT(clipped, 800);  // the horizon-clipping path is exercised
+  EXPECT_GT(far, 2500);     // and the far field, F down to ~1e-16
   EXPECT_GT(tiny, 500);
-  EXPECT_GT(zero, 500);        // back sides and polygons below the horizon
+  EXPECT_GT(zero, 500);  // back sides and polygons below the horizon
   EXPECT_GT(shifted_exactly, 1500);
-  EXPECT_GT(strict_pairs, pairs / 2);                   // 1e-12 is the rule,
-  EXPECT_LT(ill_conditioned_pairs, other_pairs / 7);   // ill-conditioning the exception
+  EXPECT_GT(strict_pairs, pairs / 2);                 // 1e-12 is the rule,
+  EXPECT_LT(ill_conditioned_pairs, other_pairs / 7);  // ill-conditioning the exception
 }
 
 // Receivers on the floor of a closed unit cube: the five other walls cover the hemisphere, for
 // every exact kernel (closure, whatever the receiver position; includes boundary limits).
 TEST(PolygonKernels, ClosedRoomSumsToOneForEveryExactKernel) {
-  const std::vector<Polygon> walls = {
-      {{0, 0, 1}, {0, 1, 1}, {1, 1, 1}, {1, 0, 1}}, {{0, 0, 0}, {0, 0, 1}, {1, 0, 1}, {1, 0, 0}},
-      {{1, 0, 0}, {1, 0, 1}, {1, 1, 1}, {1, 1, 0}}, {{1, 1, 0}, {1, 1, 1}, {0, 1, 1}, {0, 1, 0}},
-      {{0, 1, 0}, {0, 1, 1}, {0, 0, 1}, {0, 0, 0}}};
+  const std::vector<Polygon> walls = {{{0, 0, 1}, {0, 1, 1}, {1, 1, 1}, {1, 0, 1}},
+                                      {{0, 0, 0}, {0, 0, 1}, {1, 0, 1}, {1, 0, 0}},
+                                      {{1, 0, 0}, {1, 0, 1}, {1, 1, 1}, {1, 1, 0}},
+                                      {{1, 1, 0}, {1, 1, 1}, {0, 1, 1}, {0, 1, 0}},
+                                      {{0, 1, 0}, {0, 1, 1}, {0, 0, 1}, {0, 0, 0}}};
   for (const Vec3& p : {Vec3(0.5, 0.5, 0), Vec3(0.01, 0.3, 0), Vec3(1e-12, 1e-12, 0), Vec3(0, 0.5, 0), Vec3(0, 0, 0)}) {
     const Vec3 approach = (Vec3(0.5, 0.5, 0) - p).normalized();
     for (Kernel k : kExact) {
@@ -311,9 +314,7 @@ TEST(PolygonKernels, ClosedRoomSumsToOneForEveryExactKernel) {
 // X = s/(2z); the point source gives s²/(π z²). Its relative error falls like (s/z)²: check the
 // ratio of the errors at z and 2z is ~4 and the error at z = 10 s is below 1%.
 TEST(Approximations, PointSourceErrorFallsWithTheSquareOfDistance) {
-  auto square = [](double z) {
-    return Polygon{{-0.5, 0.5, z}, {0.5, 0.5, z}, {0.5, -0.5, z}, {-0.5, -0.5, z}};
-  };
+  auto square = [](double z) { return Polygon{{-0.5, 0.5, z}, {0.5, 0.5, z}, {0.5, -0.5, z}, {-0.5, -0.5, z}}; };
   auto exact = [](double z) {
     const long double X = 0.5L / z, s = std::sqrt(1 + X * X);
     return double(4 / M_PIl * (X / s) * std::atan(X / s));
@@ -326,9 +327,7 @@ TEST(Approximations, PointSourceErrorFallsWithTheSquareOfDistance) {
     const double rel = approx / exact(z) - 1.0;
     // The point source over-estimates (Lawlor 2007, see approximations.h: 1/z² vs 1/(z²+1)).
     EXPECT_GT(rel, 0.0);
-    if (prev > 0) {
-      EXPECT_NEAR(prev / rel, 4.0, 0.3) << z;
-    }
+    if (prev > 0) { EXPECT_NEAR(prev / rel, 4.0, 0.3) << z; }
     prev = rel;
     EXPECT_NEAR(point_form_factor(Kernel::Iwanicki, r, square(z)), exact(z), 1e-15);
   }
@@ -353,7 +352,7 @@ TEST(Approximations, TampieriAndCrossProductErrorsAreWhereSeed003SaysTheyAre) {
     const Polygon sq = {{-0.5, 0.5, z}, {0.5, 0.5, z}, {0.5, -0.5, z}, {-0.5, -0.5, z}};
     const double exact = point_form_factor(Kernel::Iwanicki, r, sq);
     const double rel = point_form_factor(Kernel::CrossProduct, r, sq) / exact - 1.0;
-    EXPECT_LT(rel, 0.0) << z;              // darker up close (Lawlor 2007)
+    EXPECT_LT(rel, 0.0) << z;                 // darker up close (Lawlor 2007)
     EXPECT_LT(std::abs(rel), prev_rel) << z;  // and better with distance
     prev_rel = std::abs(rel);
   }

@@ -65,7 +65,9 @@ void expect_all(const Receiver& r, const Polygon& poly, LD want, double rel, con
     const double f = point_form_factor(k, r, poly);
     ASSERT_TRUE(std::isfinite(f)) << what << " / " << kernel_info(k).name;
     if (want == 0) EXPECT_EQ(f, 0.0) << what << " / " << kernel_info(k).name;
-    else EXPECT_LE(std::abs((f - want) / want), rel) << what << " / " << kernel_info(k).name << ": " << f << " vs " << double(want);
+    else
+      EXPECT_LE(std::abs((f - want) / want), rel)
+          << what << " / " << kernel_info(k).name << ": " << f << " vs " << double(want);
   }
 }
 
@@ -135,10 +137,11 @@ TEST(Stability, FarFieldLadder) {
       for (Kernel k : kExact) {
         const double tol = k == Kernel::Lambert && D > 1e3 ? 32 * 2.2e-16 * D : 1e-12;
         for (const bool shifted : {false, true}) {
-          const double f = shifted ? point_form_factor(k, {offset, n}, moved) : point_form_factor(k, {Vec3::Zero(), n}, poly);
-          EXPECT_LE(std::abs(f / ref - 1), tol) << kernel_info(k).name << " at " << D << " sizes, " << poly.size()
-                                               << " vertices" << (shifted ? ", shifted" : "") << ": " << f << " vs "
-                                               << double(ref);
+          const double f =
+              shifted ? point_form_factor(k, {offset, n}, moved) : point_form_factor(k, {Vec3::Zero(), n}, poly);
+          EXPECT_LE(std::abs(f / ref - 1), tol)
+              << kernel_info(k).name << " at " << D << " sizes, " << poly.size() << " vertices"
+              << (shifted ? ", shifted" : "") << ": " << f << " vs " << double(ref);
         }
       }
     }
@@ -149,10 +152,12 @@ TEST(Stability, ReceiverNearThePolygonPlaneAnEdgeAndAVertex) {
   // 1e-12 below a parallel square's corner (near its plane and its vertex): F -> 1/4.
   expect_all(up, parallel_rect(0, 0, 1, 1, 1e-12), howell_b3(1, 1, 1e-12L), 1e-12, "1e-12 under a corner");
   // 1e-12 below the middle: four corners, F -> 1.
-  expect_all(up, parallel_rect(-0.5, -0.5, 0.5, 0.5, 1e-12), 4 * howell_b3(0.5L, 0.5L, 1e-12L), 1e-12, "1e-12 under the centre");
+  expect_all(up, parallel_rect(-0.5, -0.5, 0.5, 0.5, 1e-12), 4 * howell_b3(0.5L, 0.5L, 1e-12L), 1e-12,
+             "1e-12 under the centre");
   // 1e-12 in front of a perpendicular wall's bottom edge, at its corner and at its middle.
   expect_all(up, wall_x(1e-12, 0, 1, 0, 1), howell_b4(1, 1, 1e-12L), 1e-12, "1e-12 from the corner of an edge");
-  expect_all(up, wall_x(1e-12, -0.5, 0.5, 0, 1), 2 * howell_b4(1, 0.5L, 1e-12L), 1e-12, "1e-12 from the middle of an edge");
+  expect_all(up, wall_x(1e-12, -0.5, 0.5, 0, 1), 2 * howell_b4(1, 0.5L, 1e-12L), 1e-12,
+             "1e-12 from the middle of an edge");
   // refs: 1e-6 from the middle of an edge.
   const auto& c = refs::find("pp_B4_mid_edge_c1e-6");
   expect_all(up, refs::polygon(c["geometry"]["polygon"]), refs::number(c["value"]), 1e-12, "pp_B4_mid_edge_c1e-6");
@@ -184,7 +189,8 @@ TEST(Stability, HorizonCases) {
   }
   // A polygon lying in the receiver plane: F = 0 (inside it and beside it).
   expect_all({Vec3(0.2, 0.1, 0), Vec3::UnitZ()}, parallel_rect(-1, -1, 1, 1, 0), 0.0L, 0, "in the receiver plane");
-  expect_all({Vec3(3, 0, 0), Vec3::UnitZ()}, Polygon{{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}}, 0.0L, 0, "beside");
+  expect_all({Vec3(3, 0, 0), Vec3::UnitZ()}, Polygon{{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}}, 0.0L, 0,
+             "beside");
   // A grazing polygon: its plane z = tan(1e-7)(x − 1) passes 1e-7 rad beside the receiver, which
   // faces it (N = +x), so it is seen nearly edge-on: F ≈ 1.1e-8. Reference: Lambert's formula in
   // 50-digit mpmath on the same double inputs (long double would keep only ~12 digits here).
@@ -242,7 +248,8 @@ TEST(Stability, ReceiverNearAVertexInGeneralPosition) {
       ASSERT_GT(ref, 1e-4L);
       for (Kernel k : {Kernel::Iwanicki, Kernel::Lambert, Kernel::StarkVertex, Kernel::StarkImage}) {
         const double f = point_form_factor(k, {p, N}, quad);
-        EXPECT_LE(std::abs(f / ref - 1), 1e-12) << kernel_info(k).name << " at " << size << ": " << f << " vs " << double(ref);
+        EXPECT_LE(std::abs(f / ref - 1), 1e-12)
+            << kernel_info(k).name << " at " << size << ": " << f << " vs " << double(ref);
       }
       const PolygonBatch batch(std::vector<Polygon>{quad});
       double fb = -1.0;

@@ -30,7 +30,8 @@ TEST(Patching, CubeGridsAreConformingAndRespectMaxEdge) {
   double area = 0;
   for (const Patch& p : m.patches) {
     area += p.area;
-    for (int k = 0; k < 4; ++k) EXPECT_LE((m.points[p.corners[k]] - m.points[p.corners[(k + 1) % 4]]).norm(), 0.3 + 1e-12);
+    for (int k = 0; k < 4; ++k)
+      EXPECT_LE((m.points[p.corners[k]] - m.points[p.corners[(k + 1) % 4]]).norm(), 0.3 + 1e-12);
   }
   EXPECT_NEAR(area, 6.0, 1e-12);
   EXPECT_EQ(m.points.size(), 6u * 16 + 2);  // V = E − F + 2 on a sphere: closed and welded
@@ -119,7 +120,8 @@ TEST(Patching, HugeCountsAreCountedNotBuilt) {
 // The patches computed one at a time are the mesh's patches, corner for corner.
 TEST(Patching, ImplicitPatchesAreTheMeshPatches) {
   const Scene scene = mixed_scene();
-  for (const PatchingOptions& o : {PatchingOptions{0.3, 0.0}, PatchingOptions{0.09, 0.0}, PatchingOptions{0.0, 0.004}}) {
+  for (const PatchingOptions& o :
+       {PatchingOptions{0.3, 0.0}, PatchingOptions{0.09, 0.0}, PatchingOptions{0.0, 0.004}}) {
     const PatchMesh m = subdivide(scene, o);
     const PatchGrid g = count_patches(scene, o);
     const ImplicitPatches implicit(scene, g);

@@ -16,8 +16,8 @@
 
 #include "geometry/polygon.h"
 #include "scene/scene.h"
-#include "util/error.h"
 #include "scratch_dir.h"
+#include "util/error.h"
 
 namespace photometria {
 namespace {
@@ -31,7 +31,8 @@ class TempDir {
  public:
   TempDir() {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = test_scratch::fresh_dir("photometria_scene_" + std::string(info->test_suite_name()) + "_" + info->name() + "_");
+    dir_ =
+        test_scratch::fresh_dir("photometria_scene_" + std::string(info->test_suite_name()) + "_" + info->name() + "_");
   }
   ~TempDir() { fs::remove_all(dir_); }
   std::string path(const std::string& name) const { return (dir_ / name).string(); }
@@ -54,7 +55,8 @@ void expect_error(const std::string& path, ErrorKind kind, const std::vector<std
     const std::string what = e.what();
     EXPECT_EQ(e.kind(), kind) << what;
     EXPECT_EQ(what.find('\n'), std::string::npos) << "message must be one line: " << what;
-    for (const std::string& part : parts) EXPECT_NE(what.find(part), std::string::npos) << "'" << part << "' not in: " << what;
+    for (const std::string& part : parts)
+      EXPECT_NE(what.find(part), std::string::npos) << "'" << part << "' not in: " << what;
   }
 }
 
@@ -82,7 +84,8 @@ std::vector<int> faces_of_group(const Scene& s, const std::string& name) {
 }
 
 const Material& material(const Scene& s, const std::string& name) {
-  const auto it = std::find_if(s.materials.begin(), s.materials.end(), [&](const Material& m) { return m.name == name; });
+  const auto it =
+      std::find_if(s.materials.begin(), s.materials.end(), [&](const Material& m) { return m.name == name; });
   if (it == s.materials.end()) throw std::runtime_error("no material " + name);
   return *it;
 }
@@ -121,7 +124,8 @@ void expect_rgb(const Rgb& actual, const Rgb& expected) {
 
 TEST(ShippedMeshes, CornellBox) {
   const Scene s = load_scene(kMeshes + "cornell_box.obj");
-  const std::set<std::string> names = {"leftWall", "rightWall", "floor", "ceiling", "backWall", "shortBox", "tallBox", "light"};
+  const std::set<std::string> names = {"leftWall", "rightWall", "floor",   "ceiling",
+                                       "backWall", "shortBox",  "tallBox", "light"};
   EXPECT_EQ(s.materials.size(), 8u);
   EXPECT_EQ(material_names(s), names);
   EXPECT_EQ(std::set<std::string>(s.groups.begin(), s.groups.end()), names);
@@ -150,9 +154,7 @@ TEST(ShippedMeshes, CornellBox) {
     const Polygon p = s.face_polygon(int(f));
     ASSERT_TRUE(p.size() == 3 || p.size() == 4);
     EXPECT_LE(planarity_deviation(p), 1e-9) << "face " << f;
-    if (p.size() == 4) {
-      EXPECT_TRUE(is_convex(p)) << "face " << f;
-    }
+    if (p.size() == 4) { EXPECT_TRUE(is_convex(p)) << "face " << f; }
   }
   // Room faces inward (towards the middle of the box), the light down.
   const Vec3 middle(0, 1, 0);
@@ -166,9 +168,7 @@ TEST(ShippedMeshes, CornellBox) {
     Vec3 c = Vec3::Zero();
     for (int f : faces) c += centroid(s, f) / double(faces.size());
     for (int f : faces)
-      if (centroid(s, f).y() > 1e-9) {
-        EXPECT_GT(unit_normal(s, f).dot(centroid(s, f) - c), 0) << g << " face " << f;
-      }
+      if (centroid(s, f).y() > 1e-9) { EXPECT_GT(unit_normal(s, f).dot(centroid(s, f) - c), 0) << g << " face " << f; }
   }
 }
 
@@ -289,7 +289,7 @@ TEST(SceneCleaning, ZeroAreaFacesAreDroppedAndCounted) {
                                                            "v 1 0 0\n"  // 5: same place as 2
                                                            "v 2 0 0\n"  // 6: on the line through 1 and 2
                                                            "f 1 2 3 4\n"
-                                                           "f 1 2 5\n"   // 1 2 2 after welding
+                                                           "f 1 2 5\n"    // 1 2 2 after welding
                                                            "f 1 2 6\n");  // collinear
   const Scene s = load_scene(path);
   EXPECT_EQ(s.stats.input_faces, 3);
@@ -303,8 +303,9 @@ TEST(SceneCleaning, ZeroAreaFacesAreDroppedAndCounted) {
 TEST(SceneCleaning, WeldToleranceIsRelativeToTheDiagonal) {
   TempDir dir;
   // Two unit squares sharing an edge through nearly coincident vertices (1e-12 apart).
-  const std::string text = std::string(kSquare) + "v 1.000000000001 0 0\nv 2 0 0\nv 2 1 0\nv 1 0.999999999999 0\n"
-                                                  "f 1 2 3 4\nf 5 6 7 8\n";
+  const std::string text = std::string(kSquare) +
+                           "v 1.000000000001 0 0\nv 2 0 0\nv 2 1 0\nv 1 0.999999999999 0\n"
+                           "f 1 2 3 4\nf 5 6 7 8\n";
   const std::string path = dir.write("two.obj", text);
   const Scene welded = load_scene(path);
   EXPECT_EQ(welded.stats.welded_vertices, 2);
@@ -356,10 +357,12 @@ TEST(SceneCleaning, SplitsPolygonsKeepingAreaAndOrientation) {
 
 // ----- OpenMesh formats ---------------------------------------------------------------------------
 
-template <class Mesh> Mesh unit_cube() {
+template <class Mesh>
+Mesh unit_cube() {
   Mesh mesh;
   std::vector<typename Mesh::VertexHandle> v;
-  for (int i = 0; i < 8; ++i) v.push_back(mesh.add_vertex(typename Mesh::Point(float(i & 1), float((i >> 1) & 1), float(i >> 2))));
+  for (int i = 0; i < 8; ++i)
+    v.push_back(mesh.add_vertex(typename Mesh::Point(float(i & 1), float((i >> 1) & 1), float(i >> 2))));
   // Outward, counter-clockwise seen from outside.
   const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
   for (const auto& q : quads) {
@@ -367,7 +370,8 @@ template <class Mesh> Mesh unit_cube() {
       mesh.add_face(v[size_t(q[0])], v[size_t(q[1])], v[size_t(q[2])]);
       mesh.add_face(v[size_t(q[0])], v[size_t(q[2])], v[size_t(q[3])]);
     } else {
-      mesh.add_face(std::vector<typename Mesh::VertexHandle>{v[size_t(q[0])], v[size_t(q[1])], v[size_t(q[2])], v[size_t(q[3])]});
+      mesh.add_face(
+          std::vector<typename Mesh::VertexHandle>{v[size_t(q[0])], v[size_t(q[1])], v[size_t(q[2])], v[size_t(q[3])]});
     }
   }
   return mesh;
@@ -448,8 +452,9 @@ TEST(OpenMeshFormats, NonManifoldEdgeIsKept) {
 
 // ----- JSON scene files ---------------------------------------------------------------------------
 
-const char* kBoxOff = "OFF\n8 6 0\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n0 0 1\n1 0 1\n0 1 1\n1 1 1\n"
-                      "4 0 2 3 1\n4 4 5 7 6\n4 0 1 5 4\n4 2 6 7 3\n4 0 4 6 2\n4 1 3 7 5\n";
+const char* kBoxOff =
+    "OFF\n8 6 0\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n0 0 1\n1 0 1\n0 1 1\n1 1 1\n"
+    "4 0 2 3 1\n4 4 5 7 6\n4 0 1 5 4\n4 2 6 7 3\n4 0 4 6 2\n4 1 3 7 5\n";
 
 TEST(JsonScene, MeshesOverridesAndSettings) {
   TempDir dir;
@@ -490,8 +495,9 @@ TEST(JsonScene, MeshesOverridesAndSettings) {
 
 TEST(JsonScene, OverrideOfNameThatIsMaterialAndGroup) {
   TempDir dir;
-  const std::string path = dir.write(
-      "cornell.json", R"({"meshes": [{"file": ")" + kMeshes + R"(cornell_box.obj"}], "materials": {"floor": {"reflectance": 0.3}}})");
+  const std::string path =
+      dir.write("cornell.json", R"({"meshes": [{"file": ")" + kMeshes +
+                                    R"(cornell_box.obj"}], "materials": {"floor": {"reflectance": 0.3}}})");
   const Scene s = load_scene(path);
   EXPECT_EQ(s.materials.size(), 8u);
   expect_rgb(material(s, "floor").reflectance, Rgb::Constant(0.3));
@@ -500,17 +506,19 @@ TEST(JsonScene, OverrideOfNameThatIsMaterialAndGroup) {
 TEST(JsonScene, Errors) {
   TempDir dir;
   dir.write("box.off", kBoxOff);
-  expect_error(dir.write("syntax.json", "{\n  \"meshes\": [\n    {\"file\": \"box.off\",}\n  ]\n}\n"), ErrorKind::BadInput,
-               {"syntax.json:3:"});
+  expect_error(dir.write("syntax.json", "{\n  \"meshes\": [\n    {\"file\": \"box.off\",}\n  ]\n}\n"),
+               ErrorKind::BadInput, {"syntax.json:3:"});
   expect_error(dir.write("key.json", R"({"mesh": []})"), ErrorKind::BadInput, {"key.json", "'mesh'"});
   expect_error(dir.write("entry.json", R"({"meshes": [{"fiel": "box.off"}]})"), ErrorKind::BadInput,
                {"entry.json", "'fiel'", "meshes[0]"});
-  expect_error(dir.write("nomatch.json", R"({"meshes": [{"file": "box.off"}], "materials": {"nosuch": {"reflectance": 0.1}}})"),
-               ErrorKind::BadInput, {"nomatch.json", "'nosuch'"});
-  expect_error(dir.write("range.json", R"({"meshes": [{"file": "box.off"}], "materials": {"box": {"reflectance": [1.5, 0, 0]}}})"),
+  expect_error(
+      dir.write("nomatch.json", R"({"meshes": [{"file": "box.off"}], "materials": {"nosuch": {"reflectance": 0.1}}})"),
+      ErrorKind::BadInput, {"nomatch.json", "'nosuch'"});
+  expect_error(dir.write("range.json",
+                         R"({"meshes": [{"file": "box.off"}], "materials": {"box": {"reflectance": [1.5, 0, 0]}}})"),
                ErrorKind::BadInput, {"range.json", "reflectance 1.5 (channel 0)"});
-  expect_error(dir.write("type.json", R"({"meshes": [{"file": "box.off", "reflectance": "red"}]})"), ErrorKind::BadInput,
-               {"type.json", "meshes[0].reflectance"});
+  expect_error(dir.write("type.json", R"({"meshes": [{"file": "box.off", "reflectance": "red"}]})"),
+               ErrorKind::BadInput, {"type.json", "meshes[0].reflectance"});
   expect_error(dir.write("missing.json", R"({"meshes": [{"file": "gone.obj"}]})"), ErrorKind::Io,
                {"gone.obj", "missing.json"});
   expect_error(dir.write("empty.json", R"({"meshes": []})"), ErrorKind::BadInput, {"empty.json", "meshes"});
@@ -534,7 +542,7 @@ TEST(SceneBadInput, ObjLines) {
   } cases[] = {
       {"v 0 0 0\nv 1 abc 0\n", {"bad.obj:2:", "bad vertex coordinate 'abc'"}},
       {"\xEF\xBB\xBFv 0 0 0\r\nv 1 0 0\r\n\r\nv 0 x 0\r\n", {"bad.obj:4:", "'x'"}},  // BOM, CRLF
-      {"v 0 0 0\rv 1 0 0\rv 0 x 0\r", {"bad.obj:3:", "'x'"}},                          // CR only
+      {"v 0 0 0\rv 1 0 0\rv 0 x 0\r", {"bad.obj:3:", "'x'"}},                        // CR only
       {"v 0 0 nan\n", {"bad.obj:1:", "'nan'", "finite"}},
       {"\n\nv 0 -inf 0\n", {"bad.obj:3:", "'-inf'"}},
       {"v 0 0\n", {"bad.obj:1:", "3 coordinates"}},
@@ -548,7 +556,13 @@ TEST(SceneBadInput, ObjLines) {
       {"vn 0 0 x\n", {"bad.obj:1:", "bad normal value 'x'"}},
       {"vt 0.5 y\n", {"bad.obj:1:", "'y'"}},
       {v3, {"bad.obj", "no faces"}},
-      {v3 + "f 1 2 3 " + [] { std::string s; for (int i = 0; i < 300; ++i) s += "1 "; return s; }() + "\n",
+      {v3 + "f 1 2 3 " +
+           [] {
+             std::string s;
+             for (int i = 0; i < 300; ++i) s += "1 ";
+             return s;
+           }() +
+           "\n",
        {"bad.obj:4:", "at most 255"}},
   };
   for (const auto& c : cases) {
@@ -568,7 +582,8 @@ TEST(SceneBadInput, MtlValues) {
       {"newmtl white\n\nKd 0.5 abc 0.5\n", {"m.mtl:3:", "bad Kd value 'abc'"}},
       {"newmtl white\nKd 0.5 0.5\n", {"m.mtl:2:", "Kd needs 1 or 3 numbers, got 2"}},
       {"newmtl white\nKe nan 0 0\n", {"m.mtl:2:", "'nan'"}},
-      {"# white\nnewmtl white\nKd 1.2 0.5 0.5\n", {"m.mtl:2:", "material 'white': reflectance 1.2 (channel 0) must be in [0, 1)"}},
+      {"# white\nnewmtl white\nKd 1.2 0.5 0.5\n",
+       {"m.mtl:2:", "material 'white': reflectance 1.2 (channel 0) must be in [0, 1)"}},
       {"newmtl white\nKd 0.5 0.5 1\n", {"m.mtl:1:", "reflectance 1 (channel 2)"}},
       {"newmtl white\nKd 0.5 0.5 0.5\nKe 1 -1 1\n", {"m.mtl:1:", "emission -1 (channel 1) must be finite and >= 0"}},
   };
@@ -596,7 +611,8 @@ TEST(SceneBadInput, OpenMeshTextFormats) {
   expect_error(dir.write("short.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n"), ErrorKind::BadInput, {"short.off", "ends early"});
   expect_error(dir.write("comment.off", "OFF\n# made by hand\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"),
                ErrorKind::BadInput, {"comment.off:2:", "comments"});
-  expect_error(dir.write("nofaces.off", "OFF\n3 0 0\n0 0 0\n1 0 0\n0 1 0\n"), ErrorKind::BadInput, {"nofaces.off", "no faces"});
+  expect_error(dir.write("nofaces.off", "OFF\n3 0 0\n0 0 0\n1 0 0\n0 1 0\n"), ErrorKind::BadInput,
+               {"nofaces.off", "no faces"});
   const std::string ply_header =
       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
       "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
@@ -604,8 +620,9 @@ TEST(SceneBadInput, OpenMeshTextFormats) {
                {"nan.ply:12:", "vertex 2 coordinate 'inf'"});
   expect_error(dir.write("index.ply", ply_header + "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n"), ErrorKind::BadInput,
                {"index.ply:13:", "face index 3 out of range"});
-  expect_error(dir.write("inf.stl", "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n"
-                                    "vertex 0 1 inf\nendloop\nendfacet\nendsolid t\n"),
+  expect_error(dir.write("inf.stl",
+                         "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n"
+                         "vertex 0 1 inf\nendloop\nendfacet\nendsolid t\n"),
                ErrorKind::BadInput, {"inf.stl:6:", "'inf'"});
 }
 

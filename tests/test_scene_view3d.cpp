@@ -7,9 +7,9 @@
 
 #include "patching/patching.h"
 #include "scene/scene.h"
+#include "scratch_dir.h"
 #include "util/error.h"
 #include "viewfactors/viewfactors.h"
-#include "scratch_dir.h"
 
 using namespace photometria;
 namespace fs = std::filesystem;

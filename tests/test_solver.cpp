@@ -4,8 +4,8 @@
 #include <random>
 
 #include "formfactors/formfactors.h"
-#include "scene_builders.h"
 #include "formfactors/storage.h"
+#include "scene_builders.h"
 #include "solver/gauss_seidel.h"
 #include "util/error.h"
 
@@ -137,7 +137,8 @@ TEST(GaussSeidel, ReportsNonConvergenceAtTheCap) {
   const FormFactorMatrix F = furnace_matrix(mesh);
   const int n = mesh.size();
   ChannelMatrix E = ChannelMatrix::Constant(n, 3, 1.0), R = ChannelMatrix::Constant(n, 3, 0.99), B;
-  const SolverReport rep = solve_radiosity(F, E, R, ChannelMatrix::Zero(n, 3), true, {1e-12, 5, SolverMethod::GaussSeidel}, B);
+  const SolverReport rep =
+      solve_radiosity(F, E, R, ChannelMatrix::Zero(n, 3), true, {1e-12, 5, SolverMethod::GaussSeidel}, B);
   EXPECT_FALSE(rep.converged);
   EXPECT_EQ(rep.iterations, 5);
   EXPECT_GT(rep.residual, 1e-12);

@@ -7,8 +7,8 @@
 #include "refs.h"
 #include "scene_builders.h"
 #include "solver/cg.h"
-#include "solver/sor.h"
 #include "solver/solver.h"
+#include "solver/sor.h"
 #include "util/error.h"
 
 using namespace photometria;
@@ -115,9 +115,7 @@ TEST(SolverMethods, MethodsAgreeOnAColouredScene) {
   ChannelMatrix B;
   solve_radiosity(r.F, E, R, H, false, options(SolverMethod::Cg, r.areas), B);
   for (int i = 0; i < n; ++i)
-    if (R(i, 0) == 0.0) {
-      EXPECT_EQ(B(i, 0), E(i, 0));
-    }
+    if (R(i, 0) == 0.0) { EXPECT_EQ(B(i, 0), E(i, 0)); }
 }
 
 // Centroid-rule factors are not reciprocal: cg says how far off they are, and still solves the
@@ -170,8 +168,9 @@ TEST(SolverMethods, AutoPicksTheDocumentedMethod) {
   const int n = r.mesh.size();
   ChannelMatrix E = ChannelMatrix::Constant(n, 3, 1.0), R = ChannelMatrix::Constant(n, 3, 0.5), B;
   R(7, 2) = 0.95;  // one channel of one patch makes the scene stiff
-  EXPECT_EQ(solve_radiosity(r.F, E, R, ChannelMatrix::Zero(n, 3), false, options(SolverMethod::Auto, r.areas), B).method,
-            SolverMethod::Gmres);
+  EXPECT_EQ(
+      solve_radiosity(r.F, E, R, ChannelMatrix::Zero(n, 3), false, options(SolverMethod::Auto, r.areas), B).method,
+      SolverMethod::Gmres);
   R(7, 2) = 0.5;
   EXPECT_EQ(solve_radiosity(r.F, E, R, ChannelMatrix::Zero(n, 3), true, options(SolverMethod::Auto, r.areas), B).method,
             SolverMethod::GaussSeidel);

@@ -11,7 +11,7 @@
 using namespace photometria;
 
 TEST(Progress, TimeLeftIsTheStagesRateExtrapolated) {
-  EXPECT_LT(ProgressReporter::seconds_left(0.5, 0.5), 0.0);   // under a second: too early
+  EXPECT_LT(ProgressReporter::seconds_left(0.5, 0.5), 0.0);     // under a second: too early
   EXPECT_LT(ProgressReporter::seconds_left(10.0, 0.005), 0.0);  // under 1%: too early
   EXPECT_DOUBLE_EQ(ProgressReporter::seconds_left(10.0, 0.25), 30.0);
   EXPECT_DOUBLE_EQ(ProgressReporter::seconds_left(4.0, 1.0), 0.0);

@@ -4,9 +4,9 @@
 #include <fstream>
 
 #include "refs.h"
+#include "scratch_dir.h"
 #include "validation/scenes.h"
 #include "validation/suite.h"
-#include "scratch_dir.h"
 
 using namespace photometria;
 using namespace photometria::validation;
@@ -30,7 +30,8 @@ TEST(Validation, QuickSuiteMeetsItsAccuracyAndErrorsFallWithRefinement) {
   ASSERT_EQ(by["point-to-polygon (Lambert)"].size(), 1u);
   EXPECT_EQ(by["point-to-polygon (Lambert)"][0].cases, 17);
   EXPECT_LE(by["point-to-polygon (Lambert)"][0].max_rel_error, 1e-12);
-  for (const std::string s : {"patch-to-patch (Howell C-11, C-14)", "cube 6x6, floor emitting", "sphere enclosure, emitting cap"}) {
+  for (const std::string s :
+       {"patch-to-patch (Howell C-11, C-14)", "cube 6x6, floor emitting", "sphere enclosure, emitting cap"}) {
     const auto& v = by[s];
     ASSERT_GE(v.size(), 2u) << s;
     EXPECT_LT(v.back().max_rel_error, v.front().max_rel_error) << s;
@@ -44,13 +45,15 @@ TEST(Validation, QuickSuiteMeetsItsAccuracyAndErrorsFallWithRefinement) {
   EXPECT_LT(occ[3].max_rel_error, occ[2].max_rel_error);
   EXPECT_LT(occ[3].max_rel_error, 1e-6);
   EXPECT_GT(occ[0].max_rel_error, 1e-2);  // the centroid of one patch is really wrong here
-  for (const std::string s : {"white furnace rho=0.5", "white furnace rho=0.9", "white furnace rho=0.99", "white furnace rho=0.999"})
+  for (const std::string s :
+       {"white furnace rho=0.5", "white furnace rho=0.9", "white furnace rho=0.99", "white furnace rho=0.999"})
     for (const auto& r : by[s]) EXPECT_LE(r.max_rel_error, 1e-9) << s;
 }
 
 TEST(Validation, WritesCsvAndPlot) {
   const auto dir = test_scratch::fresh_dir("photometria_validation_test_");
-  const std::vector<ValidationRow> rows = {{"a", "x", 1, 1, 1, 1e-3, 1e-4, 0.01}, {"a", "y", 4, 1, 1, 1e-5, 1e-6, 0.1},
+  const std::vector<ValidationRow> rows = {{"a", "x", 1, 1, 1, 1e-3, 1e-4, 0.01},
+                                           {"a", "y", 4, 1, 1, 1e-5, 1e-6, 0.1},
                                            {"b", "x", 0, 1, 1, 0.0, 0.0, 0.001}};
   write_validation_csv((dir / "v.csv").string(), rows);
   std::ifstream in(dir / "v.csv");

@@ -17,8 +17,8 @@
 
 #include "geometry/polygon.h"
 #include "patching/patching.h"
-#include "viewfactors/viewfactors.h"
 #include "scratch_dir.h"
+#include "viewfactors/viewfactors.h"
 
 namespace fs = std::filesystem;
 namespace pm = photometria;
@@ -47,13 +47,9 @@ void expect_closed(const pm::Scene& s, const std::vector<int>& faces, const std:
 
 using cli_test::CliRun;
 
-fs::path scratch() {
-  return test_scratch::process_dir("photometria_bench_");
-}
+fs::path scratch() { return test_scratch::process_dir("photometria_bench_"); }
 
-CliRun run(const std::string& args) {
-  return cli_test::run_cli(args, (scratch() / "stderr.txt").string());
-}
+CliRun run(const std::string& args) { return cli_test::run_cli(args, (scratch() / "stderr.txt").string()); }
 
 std::vector<std::string> lines(const std::string& text) {
   std::vector<std::string> out;
@@ -112,9 +108,7 @@ TEST(BenchScenes, RoomIsClosedOrientedAndItsFurnitureDoesNotIntersect) {
     if (c.z() > 0) {  // (leg bottoms stand on the floor, facing it)
       EXPECT_TRUE(inside(front, room_lo, room_hi)) << "face " << f << " faces out of the room";
     }
-    if (f < 6) {
-      EXPECT_FALSE(inside(back, room_lo, room_hi)) << "wall " << f << " faces out";
-    }
+    if (f < 6) { EXPECT_FALSE(inside(back, room_lo, room_hi)) << "wall " << f << " faces out"; }
     if (f >= 7) {  // furniture: box k = (f − 7) / 6, facing out of it
       const pv::BenchBox& b = boxes[(f - 7) / 6];
       EXPECT_TRUE(inside(back, b.lo, b.hi)) << b.name << " face " << f;

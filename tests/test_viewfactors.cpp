@@ -40,15 +40,18 @@ ld perpendicular(ld x0, ld x1, ld y0, ld y1, ld s0, ld s1, ld e0, ld e1) {
 }
 
 struct Box {
-  int axis;       // normal axis
-  ld plane;       // coordinate along it
+  int axis;  // normal axis
+  ld plane;  // coordinate along it
   ld lo[3], hi[3];
 };
 
 Box box_of(const PatchMesh& mesh, int p) {
   Box b{};
   const Patch& pa = mesh.patches[p];
-  for (int k = 0; k < 3; ++k) { b.lo[k] = 1e30L; b.hi[k] = -1e30L; }
+  for (int k = 0; k < 3; ++k) {
+    b.lo[k] = 1e30L;
+    b.hi[k] = -1e30L;
+  }
   for (int c = 0; c < pa.corner_count; ++c)
     for (int k = 0; k < 3; ++k) {
       b.lo[k] = std::min<ld>(b.lo[k], mesh.points[pa.corners[c]][k]);
@@ -65,7 +68,8 @@ ld exact(const Box& p, const Box& q) {
   if (p.axis == q.axis) {
     if (p.plane == q.plane) return 0;
     const int u = (p.axis + 1) % 3, v = (p.axis + 2) % 3;
-    return parallel(p.lo[u], p.hi[u], p.lo[v], p.hi[v], q.lo[u], q.hi[u], q.lo[v], q.hi[v], std::abs(p.plane - q.plane));
+    return parallel(p.lo[u], p.hi[u], p.lo[v], p.hi[v], q.lo[u], q.hi[u], q.lo[v], q.hi[v],
+                    std::abs(p.plane - q.plane));
   }
   const int a = p.axis, b = q.axis, c = 3 - a - b;  // c: the common axis
   // Distances from the common line {x_a = p.plane, x_b = q.plane}: p spans x_b, q spans x_a.
@@ -113,8 +117,8 @@ void check_cube(int n) {
   EXPECT_LE(worst_rel, 1e-12) << "n = " << n;
   EXPECT_LE(worst_abs_small, 1e-15) << "n = " << n;
   EXPECT_LE(worst_row, 1e-12) << "n = " << n;
-  std::printf("cube n = %d: max rel error (F > 1e-3) %.3g, max abs error (F <= 1e-3) %.3g, max |row sum - 1| %.3g\n",
-              n, worst_rel, worst_abs_small, worst_row);
+  std::printf("cube n = %d: max rel error (F > 1e-3) %.3g, max abs error (F <= 1e-3) %.3g, max |row sum - 1| %.3g\n", n,
+              worst_rel, worst_abs_small, worst_row);
 }
 }  // namespace
 

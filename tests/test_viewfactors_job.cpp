@@ -59,10 +59,23 @@ std::string write_points(const fs::path& dir) {
   return p.string();
 }
 
-const std::set<std::string> kAlwaysKeys = {"scene",   "output",      "format", "level",           "surfaces",
-                                           "patches", "faces",       "accuracy", "visibility",    "visibility_reason",
-                                           "checks",  "matrix",      "memory_estimate", "pairs",  "enforce",
-                                           "seconds", "peak_memory_bytes"};
+const std::set<std::string> kAlwaysKeys = {"scene",
+                                           "output",
+                                           "format",
+                                           "level",
+                                           "surfaces",
+                                           "patches",
+                                           "faces",
+                                           "accuracy",
+                                           "visibility",
+                                           "visibility_reason",
+                                           "checks",
+                                           "matrix",
+                                           "memory_estimate",
+                                           "pairs",
+                                           "enforce",
+                                           "seconds",
+                                           "peak_memory_bytes"};
 
 }  // namespace
 
@@ -137,8 +150,12 @@ TEST(ViewFactorJob, FaceLevelCsvResultAndSummaries) {
   ASSERT_EQ(lines.size(), 8u) << viewfactor_summary_text(r);
   EXPECT_EQ(lines[0], "view factors: 18 faces from 19 patches -> " + job.output + " (csv)");
   EXPECT_EQ(lines[1], "  visibility: exact (" + r.visibility_reason + ")");
-  const std::vector<std::string> starts = {"  row sums: min ", "  reciprocity error max: ", "  matrix: " + r.matrix_storage + ", ",
-                                           "  memory estimate: ", "  pairs: ", "  time "};
+  const std::vector<std::string> starts = {"  row sums: min ",
+                                           "  reciprocity error max: ",
+                                           "  matrix: " + r.matrix_storage + ", ",
+                                           "  memory estimate: ",
+                                           "  pairs: ",
+                                           "  time "};
   for (size_t i = 0; i < starts.size(); ++i) EXPECT_EQ(lines[i + 2].rfind(starts[i], 0), 0u) << lines[i + 2];
   EXPECT_NE(lines[7].find(" s, peak memory "), std::string::npos);
 }
@@ -219,9 +236,7 @@ TEST(ViewFactorJob, AllOrNothingOnAnUnwritablePointsOutput) {
   try {
     run_view_factor_job(job);
     FAIL() << "no error";
-  } catch (const Error& e) {
-    EXPECT_EQ(e.kind(), ErrorKind::Io);
-  }
+  } catch (const Error& e) { EXPECT_EQ(e.kind(), ErrorKind::Io); }
   EXPECT_EQ(files_in(dir), std::set<std::string>{"points.csv"});  // no matrix, no temporary
 }
 

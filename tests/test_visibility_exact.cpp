@@ -50,7 +50,8 @@ TEST(VisibilityExact, OverlappingBlockersCountTheirUnionOnce) {
   const Polygon source = rect_poly(-1, 1, -1, 1, 2);
   // Shadows S1 = [0.2, 1] × [-0.4, 0.6] (z = 1, ×2) and S2 = [0.8, 1] × [-0.4, 1] (z = 0.5, ×4).
   const std::vector<Polygon> blockers = {rect_poly(0.1, 0.6, -0.2, 0.3, 1), rect_poly(0.2, 0.5, -0.1, 0.4, 0.5, false)};
-  const double ref = rect(-1, 1, -1, 1, 2) - rect(0.2, 1, -0.4, 0.6, 2) - rect(0.8, 1, -0.4, 1, 2) + rect(0.8, 1, -0.4, 0.6, 2);
+  const double ref =
+      rect(-1, 1, -1, 1, 2) - rect(0.2, 1, -0.4, 0.6, 2) - rect(0.8, 1, -0.4, 1, 2) + rect(0.8, 1, -0.4, 0.6, 2);
   EXPECT_NEAR(exact(source, blockers), ref, 1e-12 * ref);
   // Blockers behind the source or behind the receiver change nothing.
   const double unoccluded = rect(-1, 1, -1, 1, 2);
@@ -74,7 +75,9 @@ TEST(VisibilityExact, BlockerTouchingTheReceiverPlane) {
   EXPECT_NEAR(exact(source, {wall_x(0.5, -10, 10, 0, 0.5)}), ref, 1e-12 * ref);
   // The same as a closed box standing on the floor (five more faces, one of them in z = 0).
   const double x1 = 0.5, x2 = 1.5, y1 = -10, y2 = 10, h = 0.5;
-  std::vector<Polygon> box = {wall_x(x1, y1, y2, 0, h), rect_poly(x1, x2, y1, y2, h, false), rect_poly(x1, x2, y1, y2, 0),
+  std::vector<Polygon> box = {wall_x(x1, y1, y2, 0, h),
+                              rect_poly(x1, x2, y1, y2, h, false),
+                              rect_poly(x1, x2, y1, y2, 0),
                               {{x2, y1, 0}, {x2, y2, 0}, {x2, y2, h}, {x2, y1, h}},
                               {{x1, y1, 0}, {x2, y1, 0}, {x2, y1, h}, {x1, y1, h}},
                               {{x1, y2, 0}, {x1, y2, h}, {x2, y2, h}, {x2, y2, 0}}};
@@ -105,7 +108,8 @@ TEST(VisibilityExact, VisibleFactorsFromAPointTileItsHemisphere) {
       {{1, 0, 0}, {1, 0, 1}, {1, 1, 1}, {1, 1, 0}},  // x = 1, facing -x
   };
   const double lo = 0.4, hi = 0.7;  // box [0.4, 0.7]^2 × [0.2, 0.5], outward faces
-  const std::vector<Polygon> box = {rect_poly(lo, hi, lo, hi, 0.2), rect_poly(lo, hi, lo, hi, 0.5, false),
+  const std::vector<Polygon> box = {rect_poly(lo, hi, lo, hi, 0.2),
+                                    rect_poly(lo, hi, lo, hi, 0.5, false),
                                     {{lo, lo, 0.2}, {hi, lo, 0.2}, {hi, lo, 0.5}, {lo, lo, 0.5}},
                                     {{lo, hi, 0.2}, {lo, hi, 0.5}, {hi, hi, 0.5}, {hi, hi, 0.2}},
                                     {{lo, lo, 0.2}, {lo, lo, 0.5}, {lo, hi, 0.5}, {lo, hi, 0.2}},

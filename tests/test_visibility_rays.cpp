@@ -24,7 +24,8 @@ struct Config {
 // edge x = 1. The shadow's edges are chosen off every stratum boundary of the grids used here, so
 // that stratification gets no lucky exact answer.
 Config off_centre() {
-  return {rect_poly(-1, 1, -1, 1, 2), {rect_poly(0.13, 0.61, -0.23, 0.29, 1)},
+  return {rect_poly(-1, 1, -1, 1, 2),
+          {rect_poly(0.13, 0.61, -0.23, 0.29, 1)},
           rect(-1, 1, -1, 1, 2) - rect(0.26, 1, -0.46, 0.58, 2)};
 }
 

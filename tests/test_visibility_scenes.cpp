@@ -74,7 +74,8 @@ TEST(VisibilityScenes, FaceTreeFindsEveryOccluderInABusyRoom) {
   Scene room = builders::unit_cube(0.5, 1.0);
   for (int a = 0; a < 6; ++a)
     for (int b = 0; b < 6; ++b)
-      builders::add_box(room, Vec3(0.05 + a / 6.5, 0.05 + b / 6.5, 0.0), Vec3(0.12 + a / 6.5, 0.12 + b / 6.5, 0.1 + 0.05 * ((a + b) % 3)));
+      builders::add_box(room, Vec3(0.05 + a / 6.5, 0.05 + b / 6.5, 0.0),
+                        Vec3(0.12 + a / 6.5, 0.12 + b / 6.5, 0.1 + 0.05 * ((a + b) % 3)));
   const PatchMesh mesh = subdivide(room, {0.34, 0.0});
   const ShaftCuller culler(room);
   ASSERT_EQ(culler.face_count(), 222);
@@ -92,7 +93,8 @@ TEST(VisibilityScenes, FaceTreeFindsEveryOccluderInABusyRoom) {
       EXPECT_LT(occ.size(), everything.size());
       const Receiver x{mesh.patches[i].centroid, mesh.patches[i].normal};
       const double fv = exact_visible_form_factor(x, b, mesh.patches[j].corner_count, culler.faces(), everything);
-      EXPECT_NEAR(exact_visible_form_factor(x, b, mesh.patches[j].corner_count, culler.faces(), occ), fv, 1e-13) << i << " " << j;
+      EXPECT_NEAR(exact_visible_form_factor(x, b, mesh.patches[j].corner_count, culler.faces(), occ), fv, 1e-13)
+          << i << " " << j;
       ++checked;
       culled += occ.empty();
     }
@@ -213,10 +215,10 @@ TEST(VisibilityScenes, CoplanarNeighboursAndSeamsDoNotLeak) {
   using vis_configs::Polygon;
   // A unit room split at x = 0.5 by a two-sided wall of two faces sharing the edge y = 0.5.
   std::vector<Polygon> faces = {
-      vis_configs::rect_poly(0, 1, 0, 1, 0, false),        // floor, facing up
-      vis_configs::rect_poly(0, 1, 0, 1, 1),               // ceiling, facing down
-      vis_configs::wall_x(0.5, 0, 0.5, 0, 1),              // the wall, lower half in y
-      vis_configs::wall_x(0.5, 0.5, 1, 0, 1),              // upper half: coplanar, adjacent
+      vis_configs::rect_poly(0, 1, 0, 1, 0, false),  // floor, facing up
+      vis_configs::rect_poly(0, 1, 0, 1, 1),         // ceiling, facing down
+      vis_configs::wall_x(0.5, 0, 0.5, 0, 1),        // the wall, lower half in y
+      vis_configs::wall_x(0.5, 0.5, 1, 0, 1),        // upper half: coplanar, adjacent
   };
   const Scene scene = vis_configs::scene_of(faces);
   const PatchMesh mesh = subdivide(scene, {0.25, 0.0});
@@ -231,9 +233,7 @@ TEST(VisibilityScenes, CoplanarNeighboursAndSeamsDoNotLeak) {
         if (wall_i && wall_j) {
           EXPECT_EQ(F(i, j), 0.0);  // coplanar wall patches
         }
-        if (!wall_i && !wall_j && (ci.x() - 0.5) * (cj.x() - 0.5) < 0) {
-          EXPECT_EQ(F(i, j), 0.0) << i << " " << j;
-        }
+        if (!wall_i && !wall_j && (ci.x() - 0.5) * (cj.x() - 0.5) < 0) { EXPECT_EQ(F(i, j), 0.0) << i << " " << j; }
       }
     // A floor point level with the seam (y = 0.5): segments to the ceiling beyond the wall aim
     // straight at the seam line; none gets through.
@@ -258,7 +258,8 @@ TEST(VisibilityScenes, GroupedCullerKeepsEveryOccluderItNeeds) {
   Scene room = builders::unit_cube(0.5, 1.0);
   for (int a = 0; a < 4; ++a)
     for (int b = 0; b < 4; ++b)
-      builders::add_box(room, Vec3(0.08 + a / 4.5, 0.08 + b / 4.5, 0.0), Vec3(0.18 + a / 4.5, 0.18 + b / 4.5, 0.1 + 0.1 * ((a + b) % 3)));
+      builders::add_box(room, Vec3(0.08 + a / 4.5, 0.08 + b / 4.5, 0.0),
+                        Vec3(0.18 + a / 4.5, 0.18 + b / 4.5, 0.1 + 0.1 * ((a + b) % 3)));
   const PatchMesh mesh = subdivide(room, {0.06, 0.0});
   const ShaftCuller culler(room);
   EXPECT_THROW(GroupedShaftCuller(culler, mesh, 0), std::invalid_argument);
@@ -425,9 +426,7 @@ TEST(VisibilityScenes, PointVisibilityPerTileEqualsClippingEachPatch) {
               ASSERT_FALSE(unshadowed);
               ++tile_hidden;
             }
-            if (unshadowed) {
-              EXPECT_NEAR(want, f0, 1e-13 + 1e-12 * f0) << i << " " << j;
-            }
+            if (unshadowed) { EXPECT_NEAR(want, f0, 1e-13 + 1e-12 * f0) << i << " " << j; }
             shadowed += want == 0.0;
             partly += want > 0.0 && want < f0 * (1 - 1e-9);
             ++checked;
@@ -455,7 +454,8 @@ TEST(VisibilityScenes, PointVisibilityTileShadowIsForgottenAtANewPoint) {
   const PatchMesh mesh = subdivide(scene, {0.3, 0.0});
   const Visibility vis(scene, VisibilityMethod::Exact);
   std::vector<Receiver> points;
-  for (int i = 0; i < mesh.size(); i += 29) points.push_back(Receiver{mesh.patches[i].centroid, mesh.patches[i].normal});
+  for (int i = 0; i < mesh.size(); i += 29)
+    points.push_back(Receiver{mesh.patches[i].centroid, mesh.patches[i].normal});
   ASSERT_GE(points.size(), 10u);
   using TileShadow = PointVisibility::TileShadow;
   PointVisibility reused(vis, mesh);
@@ -509,7 +509,8 @@ TEST(VisibilityScenes, PointVisibilityAtTheSamePointWithAnotherNormal) {
       mesh.polygon(j, b);
       const double f0 = lambert_form_factor(first, b, mesh.patches[j].corner_count);
       bool unshadowed = false;
-      if (f0 > 0.0) reused.visible(j, b, mesh.patches[j].corner_count, mesh.patches[j].normal, f0, 0, 0, rays, unshadowed);
+      if (f0 > 0.0)
+        reused.visible(j, b, mesh.patches[j].corner_count, mesh.patches[j].normal, f0, 0, 0, rays, unshadowed);
     }
     reused.set_receiver(second);
     for (int j = 0; j < mesh.size(); ++j) {

@@ -69,16 +69,16 @@ struct AlignedRectangles::Raw {
 // Everything a table's build needs beyond the Table itself (freed after the build).
 struct AlignedRectangles::Build {
   int table = 0, group = 0;
-  std::vector<ld> dx;          // distinct |x − ξ| (outer)
-  std::vector<ld> dy;          // parallel: distinct |y − η|
-  std::vector<ld> y, e;        // perpendicular: distinct distances of P's and Q's inner coords
-  std::vector<int32_t> dy_id;  // parallel: [P coord × Q coord] → dy index
+  std::vector<ld> dx;               // distinct |x − ξ| (outer)
+  std::vector<ld> dy;               // parallel: distinct |y − η|
+  std::vector<ld> y, e;             // perpendicular: distinct distances of P's and Q's inner coords
+  std::vector<int32_t> dy_id;       // parallel: [P coord × Q coord] → dy index
   std::vector<int32_t> y_id, e_id;  // perpendicular: per P / Q inner coord
-  ld z = 0;                    // parallel: plane distance
+  ld z = 0;                         // parallel: plane distance
   int32_t nq_inner = 0;
   const std::vector<std::pair<int32_t, int32_t>>* p_intervals = nullptr;
   const std::vector<std::pair<int32_t, int32_t>>* q_intervals = nullptr;
-  size_t row = 0;              // stored values per outer index
+  size_t row = 0;  // stored values per outer index
 
   // True when two builds have the same argument lists (then they share corner functions).
   static bool same_arguments(const Build& a, const Build& b, bool parallel_a, bool parallel_b) {
@@ -103,7 +103,7 @@ struct AlignedRectangles::Build {
 // Corner-function values shared by the plane pairs with the same argument lists (in a cube the
 // 12 perpendicular pairs, say): rows over dx, each dy (parallel) or y × e (perpendicular).
 struct AlignedRectangles::Group {
-  int first = 0;               // a member build, for the argument lists
+  int first = 0;  // a member build, for the argument lists
   size_t row = 0;
   std::shared_ptr<std::vector<ld>> values;
 };
@@ -172,7 +172,10 @@ void AlignedRectangles::classify(const PatchMesh& mesh, double scale, std::vecto
 
     auto match = [&](const Frame& f, int& ku, int& kv) {
       double du[3], dv[3];
-      for (int m = 0; m < 3; ++m) { du[m] = u.dot(f.axis[m]); dv[m] = v.dot(f.axis[m]); }
+      for (int m = 0; m < 3; ++m) {
+        du[m] = u.dot(f.axis[m]);
+        dv[m] = v.dot(f.axis[m]);
+      }
       ku = kv = 0;
       for (int m = 1; m < 3; ++m) {
         if (std::abs(du[m]) > std::abs(du[ku])) ku = m;
@@ -210,7 +213,10 @@ void AlignedRectangles::classify(const PatchMesh& mesh, double scale, std::vecto
       }
       frames_.push_back(std::move(fr));
       f = static_cast<int>(frames_.size()) - 1;
-      if (!match(frames_[f], ku, kv)) { frames_.pop_back(); continue; }
+      if (!match(frames_[f], ku, kv)) {
+        frames_.pop_back();
+        continue;
+      }
     }
     last = f;
     Raw& r = raw[i];
@@ -433,14 +439,12 @@ std::vector<AlignedRectangles::Build> AlignedRectangles::plan_tables(const std::
       // behind is clipped off, so those map to distance 0 (always present).
       std::vector<ld> d(pi.size() + 1);
       const auto& gb = fr.coord[Q.axis];
-      for (size_t j = 0; j < pi.size(); ++j)
-        d[j] = std::max(ld(0), Q.sign * (ld(gb[pi[j]]) - ld(gb[Q.offset])));
+      for (size_t j = 0; j < pi.size(); ++j) d[j] = std::max(ld(0), Q.sign * (ld(gb[pi[j]]) - ld(gb[Q.offset])));
       d.back() = 0;
       b.y = distinct(d, b.y_id);
       d.assign(qi.size() + 1, 0);
       const auto& ga = fr.coord[P.axis];
-      for (size_t l = 0; l < qi.size(); ++l)
-        d[l] = std::max(ld(0), P.sign * (ld(ga[qi[l]]) - ld(ga[P.offset])));
+      for (size_t l = 0; l < qi.size(); ++l) d[l] = std::max(ld(0), P.sign * (ld(ga[qi[l]]) - ld(ga[P.offset])));
       d.back() = 0;
       b.e = distinct(d, b.e_id);
       t.flip_p = Q.sign < 0;
@@ -452,7 +456,7 @@ std::vector<AlignedRectangles::Build> AlignedRectangles::plan_tables(const std::
     const std::size_t interval_entries = b.dx.size() * nrp * nrq;
     const std::size_t pairs = static_cast<std::size_t>(c.pairs);
     const std::size_t max_entries = std::numeric_limits<int32_t>::max();  // offsets are int32
-    const std::size_t index_bytes = fr.dense ? 0 : 48;  // a hash-map node otherwise
+    const std::size_t index_bytes = fr.dense ? 0 : 48;                    // a hash-map node otherwise
     if (interval_entries <= std::min(pairs, max_entries) &&
         take(budget, index_bytes + outer_bytes + interval_entries * sizeof(ld))) {
       t.intervals = true;
@@ -507,7 +511,10 @@ std::vector<AlignedRectangles::Group> AlignedRectangles::share_corner_functions(
     b.group = -1;
     for (auto [it, end] = by_hash.equal_range(h); it != end; ++it) {
       const Build& o = builds[groups[it->second].first];
-      if (Build::same_arguments(b, o, par, tables_[o.table].parallel)) { b.group = it->second; break; }
+      if (Build::same_arguments(b, o, par, tables_[o.table].parallel)) {
+        b.group = it->second;
+        break;
+      }
     }
     if (b.group < 0) {
       b.group = static_cast<int>(groups.size());

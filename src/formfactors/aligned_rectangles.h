@@ -103,13 +103,13 @@ class AlignedRectangles {
   std::size_t table_bytes() const { return table_bytes_; }
 
   struct Summary {
-    int rectangles = 0;       // eligible patches
-    int frames = 0;           // distinct frames among them
-    int planes = 0;           // distinct (frame, normal axis, side, offset)
+    int rectangles = 0;                    // eligible patches
+    int frames = 0;                        // distinct frames among them
+    int planes = 0;                        // distinct (frame, normal axis, side, offset)
     long long plane_pairs_exchanging = 0;  // plane pairs that can exchange light
-    int tables_interval = 0;  // of those: tabulated with 4 reads per pair
-    int tables_corner = 0;    // tabulated with 16 reads per pair
-    long long table_entries = 0;  // values stored (16 bytes each)
+    int tables_interval = 0;               // of those: tabulated with 4 reads per pair
+    int tables_corner = 0;                 // tabulated with 16 reads per pair
+    long long table_entries = 0;           // values stored (16 bytes each)
   };
   const Summary& summary() const { return summary_; }
 
@@ -117,16 +117,16 @@ class AlignedRectangles {
   // Per patch (hot data). A plane's two in-plane axes are "slots": slot s is frame axis
   // (normal axis + 1 + s) mod 3.
   struct Rect {
-    int32_t frame = -1;   // -1: not an aligned rectangle
-    int32_t plane = -1;   // global plane id (planes of one frame are consecutive)
-    int32_t lplane = -1;  // plane index within its frame
+    int32_t frame = -1;                  // -1: not an aligned rectangle
+    int32_t plane = -1;                  // global plane id (planes of one frame are consecutive)
+    int32_t lplane = -1;                 // plane index within its frame
     int32_t l[2][2] = {{0, 0}, {0, 0}};  // per slot: local coordinate index of the low / high edge
     int32_t r[2] = {0, 0};               // per slot: interval id (distinct (low, high) pairs)
   };
   struct Plane {
-    int frame = 0, axis = 0, sign = 1;  // normal = sign × frame axis `axis`
-    int32_t offset = 0;                 // coordinate index of the plane along `axis`
-    std::vector<int32_t> coords[2];     // per slot: frame coordinate indices used, increasing
+    int frame = 0, axis = 0, sign = 1;                      // normal = sign × frame axis `axis`
+    int32_t offset = 0;                                     // coordinate index of the plane along `axis`
+    std::vector<int32_t> coords[2];                         // per slot: frame coordinate indices used, increasing
     std::vector<std::pair<int32_t, int32_t>> intervals[2];  // per slot: (low, high) local indices
     long long patches = 0;
   };
@@ -134,7 +134,7 @@ class AlignedRectangles {
     Vec3 axis[3];
     std::vector<double> coord[3];  // merged coordinates along each axis, increasing
     int first_plane = 0, planes = 0;
-    bool dense = true;             // pair ids in a planes × planes matrix, else in a hash map
+    bool dense = true;  // pair ids in a planes × planes matrix, else in a hash map
     std::vector<int32_t> pair_ids;
     std::unordered_map<uint64_t, int32_t> pair_map;
   };
@@ -146,14 +146,14 @@ class AlignedRectangles {
     bool parallel = true;
     bool intervals = false;  // values per (|x − ξ|, P interval, Q interval): 4 reads per pair
     int p_outer = 0, q_outer = 0, p_inner = 1, q_inner = 1;  // slots
-    int32_t nq_outer = 0;         // Q's coordinate count on its outer slot
-    std::vector<int32_t> outer;   // [P coord × Q coord] → offset of the |x − ξ| block in values
+    int32_t nq_outer = 0;                                    // Q's coordinate count on its outer slot
+    std::vector<int32_t> outer;  // [P coord × Q coord] → offset of the |x − ξ| block in values
     // Corner form (16 reads): parallel: inner[P coord × Q coord] → |y − η| id;
     // perpendicular: inner[P coord] → offset of P's distance y, inner[q_base + Q coord] → η id.
     std::vector<int32_t> inner;
     int32_t nq_inner = 0, q_base = 0, zero_p = 0, zero_q = 0;
-    int flip_p = 0, flip_q = 0;   // 1: distance decreases with the coordinate
-    int32_t nr_q = 0;             // interval form: Q's interval count on its inner slot
+    int flip_p = 0, flip_q = 0;  // 1: distance decreases with the coordinate
+    int32_t nr_q = 0;            // interval form: Q's interval count on its inner slot
     // Interval form: the inner sums (long double values, each stored exactly as hi, lo doubles).
     std::vector<double> interval_values;
     // Corner form: the corner functions, shared by plane pairs with the same argument lists.
@@ -169,15 +169,15 @@ class AlignedRectangles {
   struct Candidate;  // a plane pair that exchanges light, worth a table
   struct Build;      // what a table's values need beyond the Table (freed after the build)
   struct Group;      // corner functions shared by builds with the same argument lists
-  void classify(const PatchMesh& mesh, double scale, std::vector<Raw>& raw);  // 1. rectangles, frames
-  void merge_coordinates(std::vector<Raw>& raw, double merge_tol);            // 2. coordinates
-  void make_planes(const std::vector<Raw>& raw);                              // 3. planes
+  void classify(const PatchMesh& mesh, double scale, std::vector<Raw>& raw);                  // 1. rectangles, frames
+  void merge_coordinates(std::vector<Raw>& raw, double merge_tol);                            // 2. coordinates
+  void make_planes(const std::vector<Raw>& raw);                                              // 3. planes
   std::vector<Candidate> exchanging_pairs(std::size_t max_table_bytes, std::size_t& budget);  // 4a.
-  std::vector<Build> plan_tables(const std::vector<Candidate>& candidates, std::size_t& budget);  // 4b.
-  std::vector<Group> share_corner_functions(std::vector<Build>& builds);                   // 5a.
+  std::vector<Build> plan_tables(const std::vector<Candidate>& candidates, std::size_t& budget);      // 4b.
+  std::vector<Group> share_corner_functions(std::vector<Build>& builds);                              // 5a.
   void compute_corner_functions(const std::vector<Build>& builds, const std::vector<Group>& groups);  // 5b.
   void compute_interval_sums(const std::vector<Build>& builds, const std::vector<Group>& groups);     // 5c.
-  void count_kept(const std::vector<Group>& groups);                                       // 5d.
+  void count_kept(const std::vector<Group>& groups);                                                  // 5d.
   bool take(std::size_t& budget, std::size_t bytes);  // charges bytes to the budget if they fit
 
   std::vector<Rect> rects_;

@@ -91,10 +91,8 @@ void FacingGroups::classify(int i, Facing* out) const {
     front_high -= g.centroid_low;
     const double front_low = g.normal.dot(mean) - g.centroid_high;
     Facing f = Facing::Test;
-    if (above.high <= tol_ - margin || front_high <= tol_ - margin)
-      f = Facing::Away;
-    else if (above.low > tol_ + margin && front_low > tol_ + margin)
-      f = Facing::Toward;
+    if (above.high <= tol_ - margin || front_high <= tol_ - margin) f = Facing::Away;
+    else if (above.low > tol_ + margin && front_low > tol_ + margin) f = Facing::Toward;
     for (int k = g.first; k < g.end; ++k) out[order_[size_t(k)]] = f;
   }
 }
@@ -108,15 +106,14 @@ void FacingGroups::classify_point(const Vec3& x, const Vec3& normal, Facing* out
     // x not behind the source's plane: n_j·(x − c_j) >= −tol, with n_j·c_j in the centroid range.
     const double ahead_high = g.normal.dot(x) - g.centroid_low, ahead_low = g.normal.dot(x) - g.centroid_high;
     Facing f = Facing::Test;
-    if (above.high <= tol_ - margin || ahead_high < -tol_ - margin)
-      f = Facing::Away;
-    else if (above.low > tol_ + margin && ahead_low >= -tol_ + margin)
-      f = Facing::Toward;
+    if (above.high <= tol_ - margin || ahead_high < -tol_ - margin) f = Facing::Away;
+    else if (above.low > tol_ + margin && ahead_low >= -tol_ + margin) f = Facing::Toward;
     for (int k = g.first; k < g.end; ++k) out[order_[size_t(k)]] = f;
   }
 }
 
-void lambert_form_factors_facing(const Receiver& receiver, const PolygonBatch& sources, const Facing* facing, double* out) {
+void lambert_form_factors_facing(const Receiver& receiver, const PolygonBatch& sources, const Facing* facing,
+                                 double* out) {
   constexpr int kMinSkip = 8;  // shorter runs of Away sources are cheaper to evaluate than to split at
   const int n = sources.size;
   int begin = 0;  // start of the sources still to evaluate

@@ -74,6 +74,7 @@ class FacingGroups {
 // exchanges no light, and the caller does not read it), isolated ones are evaluated with their
 // neighbours (SIMD blocks are 4 wide). Each value is the batched kernel's for that source alone,
 // so they equal lambert_form_factors' bit for bit. out: sources.size entries.
-void lambert_form_factors_facing(const Receiver& receiver, const PolygonBatch& sources, const Facing* facing, double* out);
+void lambert_form_factors_facing(const Receiver& receiver, const PolygonBatch& sources, const Facing* facing,
+                                 double* out);
 
 }  // namespace photometria

@@ -130,7 +130,6 @@ class RowFill {
   }
 
  private:
-
   // F_ij: a pair facing away is skipped; aligned rectangles take their closed form (mirrored,
   // or as a pair nothing can block); per-pair mode tests the shaft first; the rest take the
   // fixed rule.
@@ -138,10 +137,13 @@ class RowFill {
     const bool analytic = s_.rects && s_.rects->eligible(i_, j);
     double area_factor = 0.0;
     if (analytic) {
-      if (s_.mirror && j < i_) return;  // from row j's entry after the loop (reciprocity)
+      if (s_.mirror && j < i_) return;             // from row j's entry after the loop (reciprocity)
       area_factor = s_.rects->area_factor(i_, j);  // 0 exactly when the pair cannot exchange light
       const int count = s_.mirror ? 2 : 1;         // with mirroring this stands for (i, j) and (j, i)
-      if (!(area_factor > 0.0)) { k_.backfacing += count; return; }
+      if (!(area_factor > 0.0)) {
+        k_.backfacing += count;
+        return;
+      }
       if (s_.mirror) {
         row_[j] = area_factor / pi_.area;
         k_.evaluated += 2;
@@ -227,7 +229,8 @@ class RowFill {
   double visible_from_point(int j, double f0) {
     ++k_.tested;
     // Only rays use the pair's stream.
-    const uint64_t stream = s_.rays_mode ? pair_stream(pair_stream(s_.options.seed, uint64_t(i_), uint64_t(j)), 0, 0) : 0;
+    const uint64_t stream =
+        s_.rays_mode ? pair_stream(pair_stream(s_.options.seed, uint64_t(i_), uint64_t(j)), 0, 0) : 0;
     const PointVisibility::VisibleFactor v =
         from_point_->visible_factor(j, unoccluded_[0], s_.options.rays, stream, k_.rays);
     if (v.unshadowed) ++k_.culled;
@@ -254,8 +257,8 @@ class RowFill {
     double f = 0.0;
     const uint64_t stream = pair_stream(s_.options.seed, uint64_t(i_), uint64_t(j));
     for (int q = 0; q < nq_; ++q) {
-      const double v = s_.vis->point_to_patch(Receiver{rule_[q].point, pi_.normal}, source(j), pj.corner_count, pj.normal,
-                                              unoccluded_[q], occluders_, s_.options.rays,
+      const double v = s_.vis->point_to_patch(Receiver{rule_[q].point, pi_.normal}, source(j), pj.corner_count,
+                                              pj.normal, unoccluded_[q], occluders_, s_.options.rays,
                                               pair_stream(stream, uint64_t(q), 0), k_.rays);
       if (s_.rays_mode) ray_part_[size_t(q) * s_.n + j] = v;
       unoccluded_[q] = v;  // now the visible factor
@@ -321,11 +324,12 @@ class RowFill {
 
 }  // namespace
 
-#pragma omp declare reduction(merge : FillCounts : omp_out.merge(omp_in)) initializer(omp_priv = FillCounts())
+#pragma omp declare reduction(merge:FillCounts : omp_out.merge(omp_in)) initializer(omp_priv = FillCounts())
 
 FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options, FillStats& stats) {
   const int n = mesh.size();
-  FormFactors F(n, options.layout == MatrixLayout::Sparse ? MatrixLayout::Sparse : MatrixLayout::Dense, options.precision);
+  FormFactors F(n, options.layout == MatrixLayout::Sparse ? MatrixLayout::Sparse : MatrixLayout::Dense,
+                options.precision);
   const double tol = plane_tolerance(mesh);
   const Visibility* vis = options.visibility;
   const bool rays_mode = vis && vis->method() == VisibilityMethod::Rays;
@@ -345,7 +349,8 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
   // The facing test per group of coplanar sources, so most pairs skip facing_away (facing.h).
   const FacingGroups facing_runs(mesh, tol);
   const bool prefetch = mesh.prefetch_pays() && !mirror;  // (mirrored rows read no patch records)
-  const FillSetup setup{mesh, options, n, tol, vis, rays_mode, per_pair, rects.get(), mirror, prefetch, sources, facing_runs};
+  const FillSetup setup{mesh,     options,     n,      tol,      vis,     rays_mode,
+                        per_pair, rects.get(), mirror, prefetch, sources, facing_runs};
 
   std::vector<GroupedShaftCuller> grouped_cullers;
   std::vector<PointVisibility> point_visibility;  // one-point rules: visibility from the point (see RowFill)

@@ -32,19 +32,19 @@
 namespace photometria {
 
 struct FillOptions {
-  int quadrature = 1;                        // receiver rule order (1 = centroid)
-  double tolerance = 0.0;                    // > 0: per-pair rule to this relative accuracy
-                                             // (formfactors/pair_integration.h) for pairs no
-                                             // face can block (an empty shaft), and the exact
-                                             // closed form for pairs of aligned rectangles
-                                             // (formfactors/aligned_rectangles.h); 0: the fixed
-                                             // `quadrature` rule for every pair
-  bool exact_rectangles = true;              // with tolerance > 0: use the rectangle closed form
-                                             // (false: the per-pair rule there too, for studies)
-  const Visibility* visibility = nullptr;    // null: no occlusion test (every pair unoccluded)
-  int rays = 576;                            // rays per (receiver point, source patch) in ray mode
-  uint64_t seed = 1;                         // ray sampling seed (results repeat for a seed)
-  std::function<void(double)> progress;      // called with the fraction done (from one thread)
+  int quadrature = 1;                      // receiver rule order (1 = centroid)
+  double tolerance = 0.0;                  // > 0: per-pair rule to this relative accuracy
+                                           // (formfactors/pair_integration.h) for pairs no
+                                           // face can block (an empty shaft), and the exact
+                                           // closed form for pairs of aligned rectangles
+                                           // (formfactors/aligned_rectangles.h); 0: the fixed
+                                           // `quadrature` rule for every pair
+  bool exact_rectangles = true;            // with tolerance > 0: use the rectangle closed form
+                                           // (false: the per-pair rule there too, for studies)
+  const Visibility* visibility = nullptr;  // null: no occlusion test (every pair unoccluded)
+  int rays = 576;                          // rays per (receiver point, source patch) in ray mode
+  uint64_t seed = 1;                       // ray sampling seed (results repeat for a seed)
+  std::function<void(double)> progress;    // called with the fraction done (from one thread)
   // Storage of the result (formfactors/storage.h); Auto is resolved by the caller from the
   // expected non-zero count (pipeline/memory.h), here it means dense.
   MatrixLayout layout = MatrixLayout::Dense;
@@ -58,21 +58,21 @@ struct FillStats {
   long long pairs_culled = 0;      // of those (or all, when the scene is convex): no face in the shaft
   long long pairs_occluded = 0;    // evaluated, then found fully blocked
   long long rays_cast = 0;
-  long long above_unoccluded = 0;  // pairs with F_ij > F_ij unoccluded (must stay 0)
-  double max_point_row_sum = 0.0;  // largest Σ_j F_vis(x_q -> P_j) over receiver points, before scaling
-  long long points_rescaled = 0;   // receiver points whose ray-estimated sum exceeded 1 and was scaled
-  long long pairs_fixed_rule = 0;  // pairs integrated with the fixed `quadrature` rule
-  long long pairs_gauss = 0;       // per-pair rule: far pairs, Gauss order from the distance ratio
-  long long pairs_adaptive = 0;    // per-pair rule: near or touching pairs, adaptive bisection
+  long long above_unoccluded = 0;        // pairs with F_ij > F_ij unoccluded (must stay 0)
+  double max_point_row_sum = 0.0;        // largest Σ_j F_vis(x_q -> P_j) over receiver points, before scaling
+  long long points_rescaled = 0;         // receiver points whose ray-estimated sum exceeded 1 and was scaled
+  long long pairs_fixed_rule = 0;        // pairs integrated with the fixed `quadrature` rule
+  long long pairs_gauss = 0;             // per-pair rule: far pairs, Gauss order from the distance ratio
+  long long pairs_adaptive = 0;          // per-pair rule: near or touching pairs, adaptive bisection
   long long pairs_exact_rectangles = 0;  // per-pair mode: aligned rectangles, closed form (exact)
   long long kernel_evaluations = 0;
 };
 
 // The invariants of a filled matrix (checked in tests and reported in the summary).
 struct FormFactorChecks {
-  double min_entry = 0.0, max_entry = 0.0;        // over all i != j; must lie in [0, 1]
-  double min_row_sum = 0.0, max_row_sum = 0.0;    // Σ_j F_ij; <= 1, and 1 in a closed scene
-  double reciprocity_error = 0.0;  // max over pairs |A_i F_ij − A_j F_ji| / min(A_i, A_j)
+  double min_entry = 0.0, max_entry = 0.0;      // over all i != j; must lie in [0, 1]
+  double min_row_sum = 0.0, max_row_sum = 0.0;  // Σ_j F_ij; <= 1, and 1 in a closed scene
+  double reciprocity_error = 0.0;               // max over pairs |A_i F_ij − A_j F_ji| / min(A_i, A_j)
 };
 FormFactorChecks check_form_factors(const PatchMesh& mesh, const FormFactors& F);
 

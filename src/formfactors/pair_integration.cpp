@@ -70,8 +70,10 @@ struct Integrator {
     const double best = split_s ? sa + sb : ta + tb;
     if (std::max(err_s, err_t) <= tol || depth >= 40) return best;
     if (split_s)
-      return adapt(cell, s0, sm, t0, t1, sa, 0.5 * tol, depth + 1) + adapt(cell, sm, s1, t0, t1, sb, 0.5 * tol, depth + 1);
-    return adapt(cell, s0, s1, t0, tm, ta, 0.5 * tol, depth + 1) + adapt(cell, s0, s1, tm, t1, tb, 0.5 * tol, depth + 1);
+      return adapt(cell, s0, sm, t0, t1, sa, 0.5 * tol, depth + 1) +
+             adapt(cell, sm, s1, t0, t1, sb, 0.5 * tol, depth + 1);
+    return adapt(cell, s0, s1, t0, tm, ta, 0.5 * tol, depth + 1) +
+           adapt(cell, s0, s1, tm, t1, tb, 0.5 * tol, depth + 1);
   }
 };
 
@@ -97,8 +99,8 @@ double bounding_radius(const Vec3* v, int n, const Vec3& centre) {
 
 }  // namespace
 
-PairResult pair_form_factor(const Vec3* r, int rn, const Vec3& r_normal, const Vec3* s, int sn,
-                            const Vec3& s_normal, double tolerance) {
+PairResult pair_form_factor(const Vec3* r, int rn, const Vec3& r_normal, const Vec3* s, int sn, const Vec3& s_normal,
+                            double tolerance) {
   PairResult result;
   // 1. Keep the part of the receiver in front of the source's plane (relative to a source vertex).
   Polygon rel(rn), front;
@@ -134,7 +136,8 @@ PairResult pair_form_factor(const Vec3* r, int rn, const Vec3& r_normal, const V
     const auto cells = cells_of(front);
     std::vector<double> first(cells.size());
     double estimate = 0.0;
-    for (size_t k = 0; k < cells.size(); ++k) estimate += first[k] = integ.box(cells[k], 0, 1, 0, 1, integ.x4, integ.w4);
+    for (size_t k = 0; k < cells.size(); ++k)
+      estimate += first[k] = integ.box(cells[k], 0, 1, 0, 1, integ.x4, integ.w4);
     const double tol_abs = tolerance * std::max(std::abs(estimate) / full_area, 1e-4) * full_area;
     for (size_t k = 0; k < cells.size(); ++k)
       integral += integ.adapt(cells[k], 0, 1, 0, 1, first[k], tol_abs / cells.size(), 0);

@@ -33,7 +33,7 @@ struct PairResult {
 
 // F(receiver → source) to relative tolerance `tolerance` (absolute floor: tolerance × 1e-4).
 // Polygons: 3 or 4 corners, convex, planar, counter-clockwise seen from their fronts.
-PairResult pair_form_factor(const Vec3* receiver, int receiver_count, const Vec3& receiver_normal,
-                            const Vec3* source, int source_count, const Vec3& source_normal, double tolerance);
+PairResult pair_form_factor(const Vec3* receiver, int receiver_count, const Vec3& receiver_normal, const Vec3* source,
+                            int source_count, const Vec3& source_normal, double tolerance);
 
 }  // namespace photometria

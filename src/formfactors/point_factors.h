@@ -43,7 +43,11 @@ class PointFactors {
   // referenced objects outlive this one.
   PointFactors(const PatchMesh& mesh, const PolygonBatch& sources, const FacingGroups& facing, const Visibility* vis,
                double tol, int rays)
-      : mesh_(mesh), sources_(sources), facing_groups_(facing), tol_(tol), rays_(rays),
+      : mesh_(mesh),
+        sources_(sources),
+        facing_groups_(facing),
+        tol_(tol),
+        rays_(rays),
         rays_mode_(vis && vis->method() == VisibilityMethod::Rays) {
     if (vis) from_point_.emplace(*vis, mesh);
     facing_.resize(size_t(mesh.size()));
@@ -89,8 +93,8 @@ class PointFactors {
   int rays_;
   bool rays_mode_;
   std::optional<PointVisibility> from_point_;
-  std::vector<Facing> facing_;   // per source, of the current point
-  std::vector<double> kernel_;   // per source: the unoccluded factor from the current point
+  std::vector<Facing> facing_;  // per source, of the current point
+  std::vector<double> kernel_;  // per source: the unoccluded factor from the current point
 };
 
 }  // namespace photometria

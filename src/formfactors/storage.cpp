@@ -70,7 +70,8 @@ double matrix_bytes(MatrixLayout layout, MatrixPrecision precision, double n, do
 
 MatrixLayout choose_layout(MatrixLayout requested, MatrixPrecision precision, double n, double nonzeros) {
   if (requested != MatrixLayout::Auto) return requested;
-  return matrix_bytes(MatrixLayout::Sparse, precision, n, nonzeros) < matrix_bytes(MatrixLayout::Dense, precision, n, nonzeros)
+  return matrix_bytes(MatrixLayout::Sparse, precision, n, nonzeros) <
+                 matrix_bytes(MatrixLayout::Dense, precision, n, nonzeros)
              ? MatrixLayout::Sparse
              : MatrixLayout::Dense;
 }
@@ -96,8 +97,12 @@ FormFactors::DenseBlock<T> FormFactors::allocate_dense(int n) {
 }
 
 FormFactors::FormFactors(const FormFactors& other)
-    : n_(other.n_), layout_(other.layout_), precision_(other.precision_), columns_(other.columns_),
-      values_double_(other.values_double_), values_float_(other.values_float_) {
+    : n_(other.n_),
+      layout_(other.layout_),
+      precision_(other.precision_),
+      columns_(other.columns_),
+      values_double_(other.values_double_),
+      values_float_(other.values_float_) {
   auto copy = [n = n_](const auto& from, auto& to) {
     using T = std::remove_reference_t<decltype(*from.get())>;
     if (!from) return;
@@ -116,19 +121,16 @@ FormFactors& FormFactors::operator=(const FormFactors& other) {
 FormFactors::FormFactors(int n, MatrixLayout layout, MatrixPrecision precision)
     : n_(n), layout_(layout), precision_(precision) {
   if (layout == MatrixLayout::Auto) throw std::logic_error("FormFactors: resolve the layout before allocating");
-  if (precision == MatrixPrecision::Auto) throw std::logic_error("FormFactors: resolve the precision before allocating");
+  if (precision == MatrixPrecision::Auto)
+    throw std::logic_error("FormFactors: resolve the precision before allocating");
   if (layout == MatrixLayout::Dense) {
-    if (precision == MatrixPrecision::Double)
-      dense_double_ = allocate_dense<double>(n);
-    else
-      dense_float_ = allocate_dense<float>(n);
+    if (precision == MatrixPrecision::Double) dense_double_ = allocate_dense<double>(n);
+    else dense_float_ = allocate_dense<float>(n);
     return;
   }
   columns_.resize(n);
-  if (precision == MatrixPrecision::Double)
-    values_double_.resize(n);
-  else
-    values_float_.resize(n);
+  if (precision == MatrixPrecision::Double) values_double_.resize(n);
+  else values_float_.resize(n);
 }
 
 FormFactors::FormFactors(FormFactorMatrix dense)
@@ -152,8 +154,10 @@ long long FormFactors::nonzeros() const {
   }
   const size_t entries = size_t(n_) * size_t(n_);
   if (precision_ == MatrixPrecision::Double)
-    return static_cast<long long>(std::count_if(dense_double_.get(), dense_double_.get() + entries, [](double f) { return f != 0.0; }));
-  return static_cast<long long>(std::count_if(dense_float_.get(), dense_float_.get() + entries, [](float f) { return f != 0.0f; }));
+    return static_cast<long long>(
+        std::count_if(dense_double_.get(), dense_double_.get() + entries, [](double f) { return f != 0.0; }));
+  return static_cast<long long>(
+      std::count_if(dense_float_.get(), dense_float_.get() + entries, [](float f) { return f != 0.0f; }));
 }
 
 void FormFactors::set_row(int i, const double* values) {
@@ -239,7 +243,8 @@ FormFactorMatrix FormFactors::to_dense() const {
   if (layout_ == MatrixLayout::Dense && precision_ == MatrixPrecision::Double)
     return Eigen::Map<const FormFactorMatrix>(dense_double_.get(), n_, n_);
   if (layout_ == MatrixLayout::Dense)
-    return Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(dense_float_.get(), n_, n_)
+    return Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(dense_float_.get(),
+                                                                                                   n_, n_)
         .cast<double>();
   FormFactorMatrix d = FormFactorMatrix::Zero(n_, n_);
   for (int i = 0; i < n_; ++i) for_each_in_row(i, [&](int j, double f) { d(i, j) = f; });

@@ -62,8 +62,8 @@ class FormFactors {
   MatrixPrecision precision() const { return precision_; }
   // "dense double", "sparse float", ... (the summary's matrix_storage).
   std::string description() const;
-  double bytes() const;           // bytes held by the entries (and column indices)
-  long long nonzeros() const;     // stored non-zero entries (dense: counted)
+  double bytes() const;        // bytes held by the entries (and column indices)
+  long long nonzeros() const;  // stored non-zero entries (dense: counted)
 
   // Replaces row i with `values` (n entries; zeros are not stored in the sparse layouts).
   // Rows may be set concurrently from different threads (distinct i).
@@ -74,13 +74,14 @@ class FormFactors {
 
   // F_ij (sparse: binary search in row i). Inline: the checks read every entry of a dense F.
   double operator()(int i, int j) const {
-    if (layout_ == MatrixLayout::Dense) return precision_ == MatrixPrecision::Double ? ddata(i)[j] : double(fdata(i)[j]);
+    if (layout_ == MatrixLayout::Dense)
+      return precision_ == MatrixPrecision::Double ? ddata(i)[j] : double(fdata(i)[j]);
     return sparse_entry(i, j);
   }
   double row_dot(int i, const Eigen::VectorXd& x) const;  // Σ_j F_ij x_j
   // Σ_j F_ij x_j over the columns begin <= j < end only (0 <= begin <= end <= N).
   double row_dot(int i, const Eigen::VectorXd& x, int begin, int end) const;
-  double row_sum(int i) const;                   // Σ_j F_ij
+  double row_sum(int i) const;                                     // Σ_j F_ij
   void add_row_to(int i, double alpha, Eigen::VectorXd& y) const;  // y += alpha · F_i,·
   // Calls fn(j, F_ij) for the stored entries of row i (dense: every entry, zeros included).
   template <class Fn>
@@ -112,7 +113,7 @@ class FormFactors {
   double sparse_entry(int i, int j) const;
   double* ddata(int i) const { return dense_double_.get() + size_t(i) * size_t(n_); }
   float* fdata(int i) const { return dense_float_.get() + size_t(i) * size_t(n_); }
-  std::vector<std::vector<int32_t>> columns_;   // sparse: per row, ascending columns
+  std::vector<std::vector<int32_t>> columns_;  // sparse: per row, ascending columns
   std::vector<std::vector<double>> values_double_;
   std::vector<std::vector<float>> values_float_;
 };
@@ -148,10 +149,8 @@ void FormFactors::mirror_lower(Pred&& mirrored, const double* areas) {
       for (int i = bi * kTile; i < i1; ++i)
         for (int j = bj * kTile; j < std::min(i, j1); ++j) {
           if (!mirrored(i, j)) continue;
-          if (dbl)
-            ddata(i)[j] = ddata(j)[i] * areas[j] / areas[i];
-          else
-            fdata(i)[j] = float(double(fdata(j)[i]) * areas[j] / areas[i]);
+          if (dbl) ddata(i)[j] = ddata(j)[i] * areas[j] / areas[i];
+          else fdata(i)[j] = float(double(fdata(j)[i]) * areas[j] / areas[i]);
         }
     }
 }

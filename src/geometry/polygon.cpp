@@ -117,7 +117,10 @@ std::vector<std::array<int, 3>> triangulate_polygon(const Polygon& p) {
       if (cross2(q[ia], q[ib], q[ic]) <= 0) continue;  // reflex or degenerate corner
       bool empty = true;
       for (int j : idx)
-        if (j != ia && j != ib && j != ic && inside_triangle(q[j], q[ia], q[ib], q[ic])) { empty = false; break; }
+        if (j != ia && j != ib && j != ic && inside_triangle(q[j], q[ia], q[ib], q[ic])) {
+          empty = false;
+          break;
+        }
       if (!empty) continue;
       tris.push_back({ia, ib, ic});
       idx.erase(idx.begin() + static_cast<long>(k));

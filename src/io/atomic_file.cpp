@@ -81,7 +81,13 @@ void unregister_temporary(int slot) {
 std::string write_failure_reason() {
   const int e = errno;
   switch (e) {
-    case ENOSPC: case EFBIG: case EIO: case EDQUOT: case EROFS: case EPIPE: case EBADF: return std::strerror(e);
+    case ENOSPC:
+    case EFBIG:
+    case EIO:
+    case EDQUOT:
+    case EROFS:
+    case EPIPE:
+    case EBADF: return std::strerror(e);
     default: return "write failed (disk full?)";
   }
 }
@@ -94,7 +100,8 @@ void sync_file(const std::string& path, const std::string& name) {
   const int rc = ::fsync(fd);
   const int e = errno;
   ::close(fd);
-  if (rc != 0 && e != EINVAL) throw_io("cannot write '" + name + "': " + std::strerror(e));  // EINVAL: cannot sync (a pipe)
+  if (rc != 0 && e != EINVAL)
+    throw_io("cannot write '" + name + "': " + std::strerror(e));  // EINVAL: cannot sync (a pipe)
 }
 
 void finish_standard_output() {
@@ -118,7 +125,8 @@ AtomicOutput::AtomicOutput(std::string target) : target_(std::move(target)) {
   namespace fs = std::filesystem;
   const fs::path dir = fs::path(target_).has_parent_path() ? fs::path(target_).parent_path() : fs::path(".");
   std::error_code ec;
-  if (!fs::is_directory(dir, ec)) throw_io("cannot write '" + target_ + "': folder '" + dir.string() + "' does not exist");
+  if (!fs::is_directory(dir, ec))
+    throw_io("cannot write '" + target_ + "': folder '" + dir.string() + "' does not exist");
   if (fs::is_directory(target_, ec)) throw_io("cannot write '" + target_ + "': it is a folder");
   temp_ = target_ + ".tmp-" + std::to_string(::getpid());
   install_handlers();

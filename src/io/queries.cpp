@@ -39,7 +39,8 @@ Vec3 read_unit(const json& v, const std::string& key, const std::string& where) 
 double read_number(const json& obj, const std::string& key, const std::string& where) {
   if (!obj.contains(key)) fail(where, quoted(key) + " is missing");
   const json& v = obj[key];
-  if (!v.is_number() || !std::isfinite(v.get<double>())) fail(where, quoted(key) + " must be a finite number, got " + v.dump());
+  if (!v.is_number() || !std::isfinite(v.get<double>()))
+    fail(where, quoted(key) + " must be a finite number, got " + v.dump());
   return v.get<double>();
 }
 
@@ -79,8 +80,10 @@ PointQuery parse_one(const json& j, size_t index, const std::string& file) {
   if (j.contains("polygon")) {
     q.kind = PointQuery::Kind::Polygon;
     const json& p = j["polygon"];
-    if (!p.is_array() || p.size() < 3) fail(where, "'polygon' must be an array of at least 3 vertices, got " + p.dump());
-    for (size_t k = 0; k < p.size(); ++k) q.polygon.push_back(read_vec3(p[k], "polygon[" + std::to_string(k) + "]", where));
+    if (!p.is_array() || p.size() < 3)
+      fail(where, "'polygon' must be an array of at least 3 vertices, got " + p.dump());
+    for (size_t k = 0; k < p.size(); ++k)
+      q.polygon.push_back(read_vec3(p[k], "polygon[" + std::to_string(k) + "]", where));
     // Which side emits: the optional front_normal, else the side the receiver is on, so that
     // either vertex order gives the same F (the convention of tests/data/refs_public.json).
     const Vec3 winding = newell_vector(q.polygon);
@@ -106,7 +109,8 @@ PointQuery parse_one(const json& j, size_t index, const std::string& file) {
     check_keys(d, where + ": distant", {"direction", "angle_deg", "intensity", "normalize"});
     q.direction = read_unit(require(d, "direction", where), "direction", where);
     q.angle_deg = read_number(d, "angle_deg", where);
-    if (q.angle_deg < 0.0 || q.angle_deg > 360.0) fail(where, "'angle_deg' must be in [0, 360], got " + d["angle_deg"].dump());
+    if (q.angle_deg < 0.0 || q.angle_deg > 360.0)
+      fail(where, "'angle_deg' must be in [0, 360], got " + d["angle_deg"].dump());
     read_intensity(d, where, q);
     if (d.contains("normalize")) {
       if (!d["normalize"].is_boolean()) fail(where, "'normalize' must be true or false, got " + d["normalize"].dump());
@@ -126,7 +130,8 @@ std::vector<PointQuery> parse_queries(const json& doc, const std::string& file) 
   for (size_t i = 0; i < doc["queries"].size(); ++i) {
     out.push_back(parse_one(doc["queries"][i], i, file));
     if (!ids.insert(out.back().id).second)
-      throw_bad_input(file + ": query " + std::to_string(i + 1) + " (id " + json_string(out.back().id) + "): duplicate id");
+      throw_bad_input(file + ": query " + std::to_string(i + 1) + " (id " + json_string(out.back().id) +
+                      "): duplicate id");
   }
   if (out.empty()) throw_bad_input(file + ": 'queries' is empty");
   return out;

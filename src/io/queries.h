@@ -29,15 +29,15 @@ struct PointQuery {
   enum class Kind { Polygon, Sphere, Distant };
   std::string id;
   Kind kind = Kind::Polygon;
-  Vec3 point = Vec3::Zero();       // receiver point, metres
-  Vec3 normal = Vec3::UnitZ();     // receiver normal, unit
-  Polygon polygon;                 // Kind::Polygon: >= 3 vertices, counter-clockwise from the emitting side
-  Vec3 center = Vec3::Zero();      // Kind::Sphere: centre, metres
-  double radius = 0.0;             // Kind::Sphere: radius > 0, metres; the point is not inside
-  Vec3 direction = Vec3::UnitZ();  // Kind::Distant: unit, toward the light
-  double angle_deg = 0.0;          // Kind::Distant: angular diameter in [0, 360] degrees
-  std::optional<double> intensity; // sphere: exitance (W/m²); distant: radiance or normalized
-  bool normalize = false;          // Kind::Distant: UsdLux normalization (kernels/distant.h)
+  Vec3 point = Vec3::Zero();        // receiver point, metres
+  Vec3 normal = Vec3::UnitZ();      // receiver normal, unit
+  Polygon polygon;                  // Kind::Polygon: >= 3 vertices, counter-clockwise from the emitting side
+  Vec3 center = Vec3::Zero();       // Kind::Sphere: centre, metres
+  double radius = 0.0;              // Kind::Sphere: radius > 0, metres; the point is not inside
+  Vec3 direction = Vec3::UnitZ();   // Kind::Distant: unit, toward the light
+  double angle_deg = 0.0;           // Kind::Distant: angular diameter in [0, 360] degrees
+  std::optional<double> intensity;  // sphere: exitance (W/m²); distant: radiance or normalized
+  bool normalize = false;           // Kind::Distant: UsdLux normalization (kernels/distant.h)
 };
 
 // Validates the document. Errors (photometria::Error, BadInput) name `file`, the query index and

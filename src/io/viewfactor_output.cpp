@@ -29,7 +29,8 @@ std::string csv_cell(const std::string& s) {
   return out;
 }
 
-template <class T> void put(std::ofstream& out, T v) {
+template <class T>
+void put(std::ofstream& out, T v) {
   // Little-endian hosts only (checked below): the in-memory bytes are the file's.
   out.write(reinterpret_cast<const char*>(&v), sizeof v);
 }
@@ -83,7 +84,8 @@ SparseWriteStats write_view_factors(AtomicOutput& atomic, ViewFactorFormat forma
         break;
       }
       case ViewFactorFormat::Sparse: {
-        for (int i = 0; i < n; ++i) out << "# surface," << i << "," << csv_cell(names[i]) << "," << g17(areas[i]) << "\n";
+        for (int i = 0; i < n; ++i)
+          out << "# surface," << i << "," << csv_cell(names[i]) << "," << g17(areas[i]) << "\n";
         out << "i,j,F\n";
         for (int i = 0; i < n; ++i) {
           double dropped = 0.0;
@@ -99,7 +101,10 @@ SparseWriteStats write_view_factors(AtomicOutput& atomic, ViewFactorFormat forma
             ++st.written;
           }
           st.total_dropped += dropped;
-          if (dropped > st.max_dropped_row_sum) { st.max_dropped_row_sum = dropped; st.worst_row = i; }
+          if (dropped > st.max_dropped_row_sum) {
+            st.max_dropped_row_sum = dropped;
+            st.worst_row = i;
+          }
           if (i % 256 == 255) atomic.check_stream();
         }
         break;
@@ -119,8 +124,8 @@ SparseWriteStats write_view_factors(AtomicOutput& atomic, ViewFactorFormat forma
       case ViewFactorFormat::View3d: {
         // View3D's SaveVF, output format 0 (docs/viewfactors.md "The view3d form"): its values
         // are single precision (R4) printed with C's %g / %.6f / %.3f, blank-separated.
-        std::string header = view3d.program + " " + view3d.version + " 0 " + std::to_string(view3d.enclosure) +
-                             " 0 " + std::to_string(n);
+        std::string header = view3d.program + " " + view3d.version + " 0 " + std::to_string(view3d.enclosure) + " 0 " +
+                             std::to_string(n);
         if (header.size() < 30) header.resize(30, ' ');
         out << header << "\n";
         const auto field = [](const char* fmt, double v) {
@@ -140,7 +145,8 @@ SparseWriteStats write_view_factors(AtomicOutput& atomic, ViewFactorFormat forma
         line.clear();
         const bool have_emit = view3d.emissivities.size() == static_cast<size_t>(n);
         for (int i = 0; i < n; ++i)
-          line.append(i ? " " : "").append(field("%.3f", have_emit ? view3d.emissivities[static_cast<size_t>(i)] : 1.0));
+          line.append(i ? " " : "")
+              .append(field("%.3f", have_emit ? view3d.emissivities[static_cast<size_t>(i)] : 1.0));
         out << line << "\n";
         break;
       }

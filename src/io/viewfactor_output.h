@@ -37,11 +37,11 @@ using ViewFactorRows = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eig
 enum class ViewFactorFormat { Csv, Sparse, Binary, View3d };
 
 struct SparseWriteStats {
-  long long written = 0;          // entries written
-  long long dropped = 0;          // non-zero entries below the threshold
-  double max_dropped_row_sum = 0; // largest Σ_j of dropped F_ij in one row
-  int worst_row = 0;              // that row
-  double total_dropped = 0;       // Σ over all dropped entries
+  long long written = 0;           // entries written
+  long long dropped = 0;           // non-zero entries below the threshold
+  double max_dropped_row_sum = 0;  // largest Σ_j of dropped F_ij in one row
+  int worst_row = 0;               // that row
+  double total_dropped = 0;        // Σ over all dropped entries
 };
 
 // What the view3d form writes besides the matrix.
@@ -55,9 +55,8 @@ struct View3dOutput {
 // Writes F into `out`'s temporary file (not committed). Throws Error(Io) naming out.target()
 // when it cannot be written. `threshold` only applies to Sparse; `view3d` only to View3d.
 // Returns the drop statistics (all zero for the dense forms).
-SparseWriteStats write_view_factors(AtomicOutput& out, ViewFactorFormat format,
-                                    const std::vector<std::string>& names, const std::vector<double>& areas,
-                                    const ViewFactorRows& F, double threshold = 0.0,
+SparseWriteStats write_view_factors(AtomicOutput& out, ViewFactorFormat format, const std::vector<std::string>& names,
+                                    const std::vector<double>& areas, const ViewFactorRows& F, double threshold = 0.0,
                                     const View3dOutput& view3d = {});
 
 // Point-to-surface factors (P points × G surfaces) as CSV: header "point,<name_1>,...,<name_G>",

@@ -4,9 +4,9 @@
 #include <vtkCallbackCommand.h>
 #include <vtkCellArray.h>
 #include <vtkCellData.h>
+#include <vtkDoubleArray.h>
 #include <vtkErrorCode.h>
 #include <vtkExecutive.h>
-#include <vtkDoubleArray.h>
 #include <vtkIdList.h>
 #include <vtkNew.h>
 #include <vtkPointData.h>
@@ -96,8 +96,7 @@ void write_vtu(AtomicOutput& out, const VtuGrid& grid) {
   vtkNew<vtkPoints> points;
   points->SetDataTypeToDouble();
   points->SetNumberOfPoints(static_cast<vtkIdType>(grid.points.size()));
-  for (size_t i = 0; i < grid.points.size(); ++i)
-    points->SetPoint(static_cast<vtkIdType>(i), grid.points[i].data());
+  for (size_t i = 0; i < grid.points.size(); ++i) points->SetPoint(static_cast<vtkIdType>(i), grid.points[i].data());
   vtkNew<vtkUnstructuredGrid> ug;
   ug->SetPoints(points);
   ug->Allocate(static_cast<vtkIdType>(grid.cells.size()));
@@ -118,10 +117,13 @@ void write_vtu(AtomicOutput& out, const VtuGrid& grid) {
   // VTK's writers keep the failing call's errno as their error code (vtkErrorCode.h: codes below
   // UserError are system errors), and return 1 from Write() even then: both are checked.
   const unsigned long code = writer->GetErrorCode();
-  if (code == vtkErrorCode::OutOfDiskSpaceError) throw_io("cannot write '" + path + "': no space left on the device (or over the file-size limit)");
-  if (code != vtkErrorCode::NoError) throw_io("cannot write '" + path + "': " + vtkErrorCode::GetStringFromErrorCode(code));
+  if (code == vtkErrorCode::OutOfDiskSpaceError)
+    throw_io("cannot write '" + path + "': no space left on the device (or over the file-size limit)");
+  if (code != vtkErrorCode::NoError)
+    throw_io("cannot write '" + path + "': " + vtkErrorCode::GetStringFromErrorCode(code));
   if (written != 1 || errors.failed())
-    throw_io("cannot write '" + path + "': VTK: " + (errors.first_error().empty() ? "the writer failed" : errors.first_error()));
+    throw_io("cannot write '" + path +
+             "': VTK: " + (errors.first_error().empty() ? "the writer failed" : errors.first_error()));
 }
 
 VtuGrid read_vtu(const std::string& path) {

@@ -41,8 +41,8 @@ double distant_size_factor(double angle_deg) {
   return c >= 0.0 ? M_PI * s * s : M_PI * (2.0 - s * s);  // UsdLux note, both branches
 }
 
-double distant_irradiance(const Receiver& receiver, const Vec3& direction, double angle_deg,
-                          double intensity, bool normalize) {
+double distant_irradiance(const Receiver& receiver, const Vec3& direction, double angle_deg, double intensity,
+                          bool normalize) {
   const double len = direction.norm();
   if (len == 0.0) return 0.0;
   if (!(angle_deg > 0.0)) return intensity * std::max(0.0, receiver.normal.dot(direction) / len);

@@ -29,7 +29,7 @@ double distant_size_factor(double angle_deg);
 // integral ∫ L |cos θ| dω, so there E = intensity is the two-sided illuminance and the
 // one-sided irradiance of a facing surface is intensity / (2 − sin²θmax).
 // θmax = 0 is a delta light (sizeFactor = 1): E = intensity · max(0, N·direction).
-double distant_irradiance(const Receiver& receiver, const Vec3& direction, double angle_deg,
-                          double intensity, bool normalize);
+double distant_irradiance(const Receiver& receiver, const Vec3& direction, double angle_deg, double intensity,
+                          bool normalize);
 
 }  // namespace photometria

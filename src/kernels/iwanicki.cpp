@@ -37,7 +37,7 @@ double centered_sum(const Vec3& c, const Polygon& r, const Vec3& N) {
     const Vec3& rj = r[(i + 1) % n];
     const Vec3 e = rj - ri;
     const Vec3 rxe = ri.cross(e);
-    const Vec3 cross = c.cross(e) + rxe;               // a_i × a_{i+1}
+    const Vec3 cross = c.cross(e) + rxe;  // a_i × a_{i+1}
     const double s = cross.norm();
     const double delta = c.dot(ri + rj) + ri.dot(rj);  // a_i·a_{i+1} − |c|², no cancellation
     const double dot = cc + delta;                     // a_i·a_{i+1} > 0 here

@@ -34,9 +34,9 @@ enum class Kernel { Iwanicki, Lambert, StarkVertex, StarkImage, PointSource, Tam
 
 struct KernelInfo {
   Kernel kernel;
-  const char* name;     // command-line name (--kernel)
-  bool exact;           // false: an approximation, reported with its error
-  const char* source;   // one line: paper and equation numbers
+  const char* name;    // command-line name (--kernel)
+  bool exact;          // false: an approximation, reported with its error
+  const char* source;  // one line: paper and equation numbers
 };
 
 // All polygon kernels, the default first.

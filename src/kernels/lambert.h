@@ -29,9 +29,9 @@
 namespace photometria {
 
 struct Receiver {
-  Vec3 point;                      // p, metres
-  Vec3 normal;                     // N, unit length
-  Vec3 approach = Vec3::Zero();    // optional limit direction for p on the polygon's boundary
+  Vec3 point;                    // p, metres
+  Vec3 normal;                   // N, unit length
+  Vec3 approach = Vec3::Zero();  // optional limit direction for p on the polygon's boundary
 };
 
 // F(dA -> polygon), dimensionless, in [0, 1]. `polygon` has n >= 3 vertices, counter-clockwise

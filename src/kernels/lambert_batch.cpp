@@ -89,8 +89,8 @@ void PolygonBatch::push_back(const Vec3* v, int n) {
   ox[k] = mean.x(), oy[k] = mean.y(), oz[k] = mean.z();
   magnitude[k] = mag, radius[k] = rad, shape[k] = shp;
   // Degenerate, or non-finite anywhere (coordinates, or bounds that overflowed): scalar path.
-  const bool finite = std::isfinite(newell_len) && front.allFinite() && mean.allFinite() &&
-                      std::isfinite(mag) && std::isfinite(rad) && std::isfinite(shp);
+  const bool finite = std::isfinite(newell_len) && front.allFinite() && mean.allFinite() && std::isfinite(mag) &&
+                      std::isfinite(rad) && std::isfinite(shp);
   if (newell_len > 0.0 && finite) kind[k] = n;
 }
 
@@ -136,8 +136,8 @@ void PolygonBatch::share_edges() {
 
 int lambert_form_factors(const Receiver& receiver, const PolygonBatch& sources, int begin, int end, double* out) {
   if (begin < 0 || end > sources.size || begin > end)
-    throw std::out_of_range("lambert_form_factors: range [" + std::to_string(begin) + ", " +
-                            std::to_string(end) + ") outside the batch of " + std::to_string(sources.size));
+    throw std::out_of_range("lambert_form_factors: range [" + std::to_string(begin) + ", " + std::to_string(end) +
+                            ") outside the batch of " + std::to_string(sources.size));
   Vec3 v[4];
   if (!use_avx2()) {
     for (int k = begin; k < end; ++k) out[k - begin] = lambert_form_factor(receiver, v, sources.vertices(k, v));
@@ -154,7 +154,8 @@ int lambert_form_factors(const Receiver& receiver, const PolygonBatch& sources, 
   view.p_magnitude = inf_norm(receiver.point);
   view.size = sources.size;
   if (sources.edges_shared()) {
-    for (int i = 0; i < 2; ++i) view.ex[i] = sources.ex[i].data(), view.ey[i] = sources.ey[i].data(), view.ez[i] = sources.ez[i].data();
+    for (int i = 0; i < 2; ++i)
+      view.ex[i] = sources.ex[i].data(), view.ey[i] = sources.ey[i].data(), view.ez[i] = sources.ez[i].data();
     view.chunk_edges = sources.chunk_edges.data();
     for (int c = 0; c < 4; ++c) view.edge[c] = sources.edge[c].data();
   }

@@ -56,7 +56,9 @@ struct AlignedAllocator {
   T* allocate(std::size_t n) { return static_cast<T*>(::operator new(n * sizeof(T), kAlignment)); }
   void deallocate(T* p, std::size_t) noexcept { ::operator delete(p, kAlignment); }
   template <class U>
-  bool operator==(const AlignedAllocator<U>&) const noexcept { return true; }
+  bool operator==(const AlignedAllocator<U>&) const noexcept {
+    return true;
+  }
 };
 using AlignedDoubles = std::vector<double, AlignedAllocator<double>>;
 
@@ -188,7 +190,7 @@ struct View {
   const int* chunk_edges;
   const int* edge[4];
 };
-inline constexpr int kEdgeChunk = 256;        // = PolygonBatch::kEdgeChunk
+inline constexpr int kEdgeChunk = 256;              // = PolygonBatch::kEdgeChunk
 inline constexpr int kEdgeStride = 4 * kEdgeChunk;  // = PolygonBatch::kEdgeStride
 // Writes out[k - begin] for k in [begin, end) — the form factor, or 0 — and the indices k whose
 // value the scalar kernel must supply into scalar_lanes (end - begin entries suffice); returns

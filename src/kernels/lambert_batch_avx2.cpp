@@ -91,12 +91,26 @@ inline void atan2_upper(const B* y, const B* x, B* theta) {
     ds[i] = xsimd::fnma(s[i], den_err[i], xsimd::fnma(s[i], den[i], num[i]) + num_err[i]) / den[i];
   for (int i = 0; i < n; ++i) {
     const B z = s[i] * s[i], w = z * z;
-    const B s1 = z * xsimd::fma(w, xsimd::fma(w, xsimd::fma(w, xsimd::fma(w, xsimd::fma(w,
-                     B(1.62858201153657823623e-02), B(4.97687799461593236017e-02)), B(6.66107313738753120669e-02)),
-                     B(9.09088713343650656196e-02)), B(1.42857142725034663711e-01)), B(3.33333333333329318027e-01));
-    const B s2 = w * xsimd::fma(w, xsimd::fma(w, xsimd::fma(w, xsimd::fma(w,
-                     B(-3.65315727442169155270e-02), B(-5.83357013379057348645e-02)), B(-7.69187620504482999495e-02)),
-                     B(-1.11111104054623557880e-01)), B(-1.99999999998764832476e-01));
+    const B s1 =
+        z *
+        xsimd::fma(
+            w,
+            xsimd::fma(
+                w,
+                xsimd::fma(w,
+                           xsimd::fma(w, xsimd::fma(w, B(1.62858201153657823623e-02), B(4.97687799461593236017e-02)),
+                                      B(6.66107313738753120669e-02)),
+                           B(9.09088713343650656196e-02)),
+                B(1.42857142725034663711e-01)),
+            B(3.33333333333329318027e-01));
+    const B s2 =
+        w * xsimd::fma(
+                w,
+                xsimd::fma(w,
+                           xsimd::fma(w, xsimd::fma(w, B(-3.65315727442169155270e-02), B(-5.83357013379057348645e-02)),
+                                      B(-7.69187620504482999495e-02)),
+                           B(-1.11111104054623557880e-01)),
+                B(-1.99999999998764832476e-01));
     const B tail = xsimd::fnma(s[i], s1 + s2, xsimd::fnma(z, ds[i], ds[i]));  // atan(s + ds) − s
     // C = π/2 (swap), π (x < 0, no swap) or 0; σ = −1 when exactly one of (x < 0, swap).
     const M neg = x[i] < B(0.0);
@@ -184,8 +198,8 @@ void block(const View& v, int k, double* res, int& simple_bits, int& zero_bits, 
   const B height = dot(front, d);
   const B magnitude = xsimd::max(B(v.p_magnitude), B::load_aligned(v.magnitude + k));
   const B rb = ((xsimd::abs(d.x) + xsimd::abs(d.y)) + xsimd::abs(d.z)) + B::load_aligned(v.radius + k);
-  const B margin = B(kEps) * (B(16.0) * magnitude +
-                              B(128.0) * (rb + magnitude) * (B(1.0) + rb * B::load_aligned(v.shape + k)));
+  const B margin =
+      B(kEps) * (B(16.0) * magnitude + B(128.0) * (rb + magnitude) * (B(1.0) + rb * B::load_aligned(v.shape + k)));
   // Horizon: N·a_i is computed exactly as the scalar kernel does; the margin is for safety only.
   const B above = B(8.0 * kEps) * rb;
 
@@ -368,7 +382,8 @@ double small_polygon_edge_sum_avx2(const double* x, const double* y, const doubl
   const V3 b{next(a.x), next(a.y), next(a.z)};
   const V3 e = b - a;
   const M a_shorter = dot(a, a) <= dot(b, b);
-  const V3 s{xsimd::select(a_shorter, a.x, b.x), xsimd::select(a_shorter, a.y, b.y), xsimd::select(a_shorter, a.z, b.z)};
+  const V3 s{xsimd::select(a_shorter, a.x, b.x), xsimd::select(a_shorter, a.y, b.y),
+             xsimd::select(a_shorter, a.z, b.z)};
   const V3 c = cross(s, e);  // a_k × a_{k+1}, on the shorter of the two (lambert.cpp)
   const V3 normal{B(N[0]), B(N[1]), B(N[2])};
   const B term = edge_term(dot(c, c), dot(a, b), dot(normal, c));

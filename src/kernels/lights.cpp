@@ -16,7 +16,8 @@ using nlohmann::json;
 Vec3 read_vec3(const json& j, const char* key, const std::string& where) {
   if (!j.contains(key)) fail(where, std::string("'") + key + "' is missing");
   const json& v = j[key];
-  if (!v.is_array() || v.size() != 3) fail(where, std::string("'") + key + "' must be an array of 3 numbers, got " + v.dump());
+  if (!v.is_array() || v.size() != 3)
+    fail(where, std::string("'") + key + "' must be an array of 3 numbers, got " + v.dump());
   Vec3 out;
   for (int i = 0; i < 3; ++i) {
     if (!v[i].is_number() || !std::isfinite(v[i].get<double>()))
@@ -88,7 +89,8 @@ std::vector<Light> parse_lights(const json& lights, const std::string& file) {
       if (light.angle_deg < 0.0 || light.angle_deg > 360.0)
         fail(where, std::string("'") + key + "' must be in [0, 360] degrees, got " + j[key].dump());
       if (j.contains("normalize")) {
-        if (!j["normalize"].is_boolean()) fail(where, "'normalize' must be true or false, got " + j["normalize"].dump());
+        if (!j["normalize"].is_boolean())
+          fail(where, "'normalize' must be true or false, got " + j["normalize"].dump());
         light.normalize = j["normalize"].get<bool>();
       }
     } else {

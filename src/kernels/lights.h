@@ -29,8 +29,8 @@ struct Light {
   Type type = Type::Sphere;
   Eigen::Array3d intensity = Eigen::Array3d::Zero();  // RGB, see units above
   // sphere
-  Vec3 center = Vec3::Zero();   // metres
-  double radius = 0.0;          // metres, > 0
+  Vec3 center = Vec3::Zero();  // metres
+  double radius = 0.0;         // metres, > 0
   // distant
   Vec3 direction = Vec3::UnitZ();  // unit, toward the light
   double angle_deg = 0.0;          // angular diameter, degrees, in [0, 360]; 0 = delta light

@@ -47,7 +47,7 @@ double sphere_form_factor(const Receiver& receiver, const Vec3& center, double r
   const double d = rel.norm();
   if (radius <= 0.0) return 0.0;
   if (d <= radius) return std::clamp(0.5 * (1.0 + (d > 0 ? receiver.normal.dot(rel) / d : 0.0)), 0.0, 1.0);
-  const double ss = radius / d;                                 // sin σ = r/d
+  const double ss = radius / d;                                  // sin σ = r/d
   const double cs = std::sqrt((d - radius) * (d + radius)) / d;  // cos σ without cancellation
   return spherical_cap_form_factor(ss, cs, std::clamp(receiver.normal.dot(rel) / d, -1.0, 1.0));
 }

@@ -141,7 +141,7 @@ double stark_vertex_centred(const Vec3& c, const Polygon& r, const Vec3& N) {
     H.rxr = 0.5 * r0.cross(r1);
     const double half_hl = (H.cxe + H.rxr).norm();  // |m_j × δ| = h_j ℓ_j / 2
     auto weights = [&](const Vec3& ri, double& dw, double& w) {
-      const double delta = c.dot(rho + ri) + rho.dot(ri);  // m_j·a_i − |c|², no cancellation
+      const double delta = c.dot(rho + ri) + rho.dot(ri);    // m_j·a_i − |c|², no cancellation
       const double dot = cc + delta;                         // m_j·a_i > 0 here
       const double g = atan_ratio_minus_one(half_hl / dot);  // atan τ/τ − 1
       w = (1.0 + g) / dot;                                   // ω
@@ -192,7 +192,7 @@ double stark_image_direct(const Polygon& a, const Vec3& N) {
     E.live = len != 0.0;  // zero-length edge, or edge along a view ray: no angle swept
     if (!E.live) continue;
     const Vec3 n_hat = line / len;
-    E.cos_n = N.dot(n_hat);  // = −C (a y − b x) of eq. (45)
+    E.cos_n = N.dot(n_hat);                 // = −C (a y − b x) of eq. (45)
     const bool narrow = aj.dot(ak) >= 0.0;  // the edge subtends at most 90°
     const bool at_infinity = W[j] == 0.0 && W[k] == 0.0;
     if (at_infinity || 1.0 - E.cos_n * E.cos_n < 0.25) {
@@ -273,8 +273,8 @@ double stark_image_centred(const Vec3& c, const Polygon& r, const Polygon& a, co
       const Vec3& ri = s < 0 ? r0 : r1;
       const Vec3& ai = s < 0 ? a[j] : a[k];
       const double delta_dot = c.dot(rho + ri) + rho.dot(ri);  // m·a − |c|², no cancellation
-      const double dot = cc + delta_dot;                        // m·a > 0 here
-      double tau;                                               // tan ψ
+      const double dot = cc + delta_dot;                       // m·a > 0 here
+      double tau;                                              // tan ψ
       if (tangents) {
         // (u − u_m)/(1 + u u_m) × W W_m, with q·(a W_m − m W) = q·(δ W_m − m N·δ), δ = ±e/2
         tau = (0.5 * s) * (Wm * q.dot(e) - N.dot(e) * qm) / (N.dot(ai) * Wm + q.dot(ai) * qm);
@@ -282,7 +282,7 @@ double stark_image_centred(const Vec3& c, const Polygon& r, const Polygon& a, co
         tau = s * 0.5 * len / dot;  // measured in the edge's plane, as eq. (46)
       }
       const double g = atan_ratio_minus_one(tau);
-      const double w = (1.0 + g) / dot;               // ω
+      const double w = (1.0 + g) / dot;                    // ω
       const double dw = g / dot - delta_dot / (dot * cc);  // ω − w̄
       // G(a; j) without its leading part: −(s/2)[(ω − w̄) l_c + ω l_r]. Vertex i gets
       // G(a_i; i−1) − G(a_i; i): the end term (s = +1) with +, the start term (s = −1) with −.

@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <climits>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <numeric>
 
@@ -30,7 +30,7 @@ struct UnionFind {
 // A mesh edge, stored once with its vertices in increasing order, with its interior points.
 struct Edge {
   int lo = 0, hi = 0;
-  long long segments = 1;  // ≤ kMaxSegments; subdivide() runs only when the whole mesh fits an int
+  long long segments = 1;     // ≤ kMaxSegments; subdivide() runs only when the whole mesh fits an int
   std::vector<int> interior;  // point indices from lo towards hi
 };
 
@@ -72,12 +72,14 @@ class Subdivider {
   PatchMesh run() {
     const PatchGrid grid = count();
     if (!grid.fits_int())
-      throw_bad_input("patching would make " + approximate(grid.patches) + " patches, more than a mesh can index; raise --max-edge");
+      throw_bad_input("patching would make " + approximate(grid.patches) +
+                      " patches, more than a mesh can index; raise --max-edge");
     mesh_.points = scene_.vertices;  // original vertices keep their indices
     create_edge_points();
     for (int f = 0; f < static_cast<int>(scene_.faces.size()); ++f) {
       if (scene_.faces[f].obstruction_only) continue;  // occluder only: no patches
-      if (scene_.faces[f].vertices.size() == 4) split_quad(f); else split_triangle(f);
+      if (scene_.faces[f].vertices.size() == 4) split_quad(f);
+      else split_triangle(f);
     }
     return std::move(mesh_);
   }
@@ -120,8 +122,13 @@ class Subdivider {
       need[e] = needed_segments((scene_.vertices[edges_[e].hi] - scene_.vertices[edges_[e].lo]).norm());
     for (size_t f = 0; f < scene_.faces.size(); ++f) {
       const auto& fe = face_edges_[f];
-      if (fe.size() == 4) { tied.unite(fe[0], fe[2]); tied.unite(fe[1], fe[3]); }
-      else { tied.unite(fe[0], fe[1]); tied.unite(fe[1], fe[2]); }
+      if (fe.size() == 4) {
+        tied.unite(fe[0], fe[2]);
+        tied.unite(fe[1], fe[3]);
+      } else {
+        tied.unite(fe[0], fe[1]);
+        tied.unite(fe[1], fe[2]);
+      }
       if (options_.max_area > 0) {
         // nu·nv >= n² segments with n = ceil(sqrt(area / max_area)) keeps every patch small enough.
         const double area = polygon_area(scene_.face_polygon(static_cast<int>(f)));
@@ -167,7 +174,11 @@ class Subdivider {
     p.face = face;
     p.corner_count = static_cast<int>(corners.size());
     std::copy(corners.begin(), corners.end(), p.corners.begin());
-    const Polygon poly = [&] { Polygon q; for (int c : corners) q.push_back(mesh_.points[c]); return q; }();
+    const Polygon poly = [&] {
+      Polygon q;
+      for (int c : corners) q.push_back(mesh_.points[c]);
+      return q;
+    }();
     p.normal = polygon_normal(scene_.face_polygon(face));
     p.area = polygon_area(poly);
     p.centroid = polygon_centroid(poly);
@@ -220,9 +231,7 @@ class Subdivider {
 
 }  // namespace
 
-PatchMesh subdivide(const Scene& scene, const PatchingOptions& options) {
-  return Subdivider(scene, options).run();
-}
+PatchMesh subdivide(const Scene& scene, const PatchingOptions& options) { return Subdivider(scene, options).run(); }
 
 bool PatchGrid::fits_int() const { return patches <= INT_MAX && points <= INT_MAX; }
 

@@ -29,7 +29,7 @@ struct Patch {
 };
 
 struct PatchMesh {
-  std::vector<Vec3> points;    // shared patch vertices
+  std::vector<Vec3> points;  // shared patch vertices
   std::vector<Patch> patches;
 
   int size() const { return static_cast<int>(patches.size()); }
@@ -77,8 +77,8 @@ struct PatchGrid {
   // its first edge, nu·nv patches), {n, n} for a triangle (n² patches); {0, 0} for a face that
   // only obstructs (no patches).
   std::vector<std::array<double, 2>> segments;
-  double patches = 0.0;  // Σ patches, in patch order (face by face); a double: it may exceed any int
-  double points = 0.0;   // shared patch vertices (PatchMesh::points)
+  double patches = 0.0;   // Σ patches, in patch order (face by face); a double: it may exceed any int
+  double points = 0.0;    // shared patch vertices (PatchMesh::points)
   bool fits_int() const;  // both counts small enough for subdivide()
 };
 PatchGrid count_patches(const Scene& scene, const PatchingOptions& options);

@@ -6,7 +6,10 @@ DirectLighting::DirectLighting(const Scene& scene) {
   if (scene.settings.contains("lights")) lights_ = parse_lights(scene.settings["lights"], scene.source);
   if (lights_.empty()) return;
   Vec3 lo = scene.vertices.at(0), hi = lo;
-  for (const Vec3& v : scene.vertices) { lo = lo.cwiseMin(v); hi = hi.cwiseMax(v); }
+  for (const Vec3& v : scene.vertices) {
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+  }
   far_ = 4.0 * std::max((hi - lo).norm(), 1e-6);
   if (!scene_needs_no_visibility(scene)) rays_ = std::make_unique<RayVisibility>(scene);
 }

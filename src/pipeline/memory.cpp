@@ -1,8 +1,8 @@
 #include "pipeline/memory.h"
 
 #include <algorithm>
-#include <climits>
 #include <cctype>
+#include <climits>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -24,12 +24,12 @@ constexpr long long kSamples = 16384;
 // is split), which is what is assumed.
 double per_patch_bytes() {
   const double rgb = 3 * sizeof(double);
-  const double patch = sizeof(Patch) + sizeof(Vec3);           // patch + about one shared point
-  const double channels = 6 * rgb;                             // emission, reflectance, radiosity, irradiance, direct, F·B
-  const double solver = 5 * sizeof(double) + sizeof(double);   // per-channel vectors + row sums
+  const double patch = sizeof(Patch) + sizeof(Vec3);  // patch + about one shared point
+  const double channels = 6 * rgb;                    // emission, reflectance, radiosity, irradiance, direct, F·B
+  const double solver = 5 * sizeof(double) + sizeof(double);  // per-channel vectors + row sums
   const double cell = sizeof(std::vector<int>) + 4 * sizeof(int);
-  const double point = sizeof(OutputPoint) + 2 * rgb            // point irradiance, radiosity
-                       + sizeof(Vec3) + 2 * rgb;                // the .vtu copy of them
+  const double point = sizeof(OutputPoint) + 2 * rgb  // point irradiance, radiosity
+                       + sizeof(Vec3) + 2 * rgb;      // the .vtu copy of them
   const double vtu_cell = cell + 4 * sizeof(long long) + 4 * rgb + 3 * sizeof(double);
   return patch + channels + solver + cell + 4 * point + vtu_cell;
 }
@@ -82,7 +82,8 @@ MemoryEstimate estimate_from(long long n, double tol, uint64_t seed, const Shape
   e.per_patch_bytes = per_patch_bytes();
   const double rest = e.per_patch_bytes * double(n);
   e.dense_bytes = double(n) * double(n) * sizeof(double) + rest;
-  e.sparse_bytes = double(e.nonzero_pairs) * (sizeof(double) + sizeof(int32_t)) + double(n + 1) * sizeof(int64_t) + rest;
+  e.sparse_bytes =
+      double(e.nonzero_pairs) * (sizeof(double) + sizeof(int32_t)) + double(n + 1) * sizeof(int64_t) + rest;
   return e;
 }
 
@@ -144,17 +145,20 @@ StorageChoice choose_storage(MatrixLayout layout, MatrixPrecision precision, dou
   };
   c.precision = precision;
   if (precision == MatrixPrecision::Auto)
-    c.precision = fits(MatrixPrecision::Double) || !fits(MatrixPrecision::Float) ? MatrixPrecision::Double : MatrixPrecision::Float;
+    c.precision = fits(MatrixPrecision::Double) || !fits(MatrixPrecision::Float) ? MatrixPrecision::Double
+                                                                                 : MatrixPrecision::Float;
   c.layout = choose_layout(layout, c.precision, n, nonzeros);
   c.storage = std::string(layout_name(c.layout)) + " " + precision_name(c.precision);
   std::ostringstream why;
-  if (layout != MatrixLayout::Auto)
-    why << "requested (--matrix " << layout_name(c.layout) << ")";
+  if (layout != MatrixLayout::Auto) why << "requested (--matrix " << layout_name(c.layout) << ")";
   else
     why << "auto: " << std::setprecision(3) << (n > 1 ? 100.0 * nonzeros / (n * (n - 1)) : 0.0)
         << "% of pairs face each other, so " << layout_name(c.layout) << " is smaller";
   if (precision == MatrixPrecision::Auto && c.precision == MatrixPrecision::Float)
-    why << "; float entries, because double (" << format_bytes(matrix_bytes(choose_layout(layout, MatrixPrecision::Double, n, nonzeros), MatrixPrecision::Double, n, nonzeros) + other_bytes)
+    why << "; float entries, because double ("
+        << format_bytes(matrix_bytes(choose_layout(layout, MatrixPrecision::Double, n, nonzeros),
+                                     MatrixPrecision::Double, n, nonzeros) +
+                        other_bytes)
         << " in all) would exceed " << c.limit_source << " (" << format_bytes(c.limit_bytes) << ")";
   c.reason = why.str();
   c.matrix_bytes = matrix_bytes(c.layout, c.precision, n, nonzeros);
@@ -183,7 +187,10 @@ double available_memory_bytes() {
 std::string format_bytes(double bytes) {
   static const char* units[] = {"bytes", "KiB", "MiB", "GiB", "TiB", "PiB"};
   int u = 0;
-  while (bytes >= 1024.0 && u < 5) { bytes /= 1024.0; ++u; }
+  while (bytes >= 1024.0 && u < 5) {
+    bytes /= 1024.0;
+    ++u;
+  }
   char buf[32];
   if (u == 0) std::snprintf(buf, sizeof buf, "%.0f bytes", bytes);
   else if (bytes < 10) std::snprintf(buf, sizeof buf, "%.1f %s", bytes, units[u]);
@@ -216,9 +223,7 @@ bool parse_memory_size(const std::string& text, double& bytes) {
   double x = 0;
   try {
     x = std::stod(text, &used);
-  } catch (const std::exception&) {
-    return false;
-  }
+  } catch (const std::exception&) { return false; }
   std::string unit = text.substr(used);
   std::transform(unit.begin(), unit.end(), unit.begin(), [](unsigned char c) { return std::toupper(c); });
   double scale = 1;

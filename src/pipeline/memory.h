@@ -21,11 +21,11 @@ namespace photometria {
 
 struct MemoryEstimate {
   int patches = 0;
-  long long pairs_total = 0;          // N (N − 1)
-  long long nonzero_pairs = 0;        // pairs facing each other (estimate, see above)
-  double per_patch_bytes = 0.0;       // the arrays other than the matrix, per patch
-  double dense_bytes = 0.0;           // N² × 8 + per_patch_bytes × N
-  double sparse_bytes = 0.0;          // nonzero_pairs × 12 + (N + 1) × 8 + per_patch_bytes × N
+  long long pairs_total = 0;     // N (N − 1)
+  long long nonzero_pairs = 0;   // pairs facing each other (estimate, see above)
+  double per_patch_bytes = 0.0;  // the arrays other than the matrix, per patch
+  double dense_bytes = 0.0;      // N² × 8 + per_patch_bytes × N
+  double sparse_bytes = 0.0;     // nonzero_pairs × 12 + (N + 1) × 8 + per_patch_bytes × N
 };
 
 // Estimates both storages for `mesh`; `seed` makes the pair sampling repeatable.
@@ -42,15 +42,15 @@ std::string format_patch_count(double patches);
 
 // The form-factor storage a run uses, chosen before the fill (the solve and `viewfactors` both).
 struct StorageChoice {
-  MatrixLayout layout = MatrixLayout::Dense;           // resolved: Dense or Sparse
+  MatrixLayout layout = MatrixLayout::Dense;            // resolved: Dense or Sparse
   MatrixPrecision precision = MatrixPrecision::Double;  // resolved: Double or Float
-  std::string storage;         // "dense double", "sparse float", ...
-  std::string reason;          // why, for the summary ("auto: 74.2% of pairs face each other, ...")
-  double matrix_bytes = 0.0;   // the matrix in that storage
+  std::string storage;                                  // "dense double", "sparse float", ...
+  std::string reason;            // why, for the summary ("auto: 74.2% of pairs face each other, ...")
+  double matrix_bytes = 0.0;     // the matrix in that storage
   double estimated_bytes = 0.0;  // matrix_bytes + other_bytes
-  double limit_bytes = 0.0;    // what it must fit in (0: unknown, no limit)
-  std::string limit_source;    // "--max-memory" or "MemAvailable"
-  bool fits = true;            // estimated_bytes <= limit_bytes (or no limit)
+  double limit_bytes = 0.0;      // what it must fit in (0: unknown, no limit)
+  std::string limit_source;      // "--max-memory" or "MemAvailable"
+  bool fits = true;              // estimated_bytes <= limit_bytes (or no limit)
   // For a refusal: "--max-memory is 2 GiB" or "only 1.2 GiB is available (MemAvailable; set
   // --max-memory to override)".
   std::string limit_description() const;

@@ -43,51 +43,78 @@ VtuGrid result_grid(const Scene& scene, const SolveResult& r) {
 nlohmann::json summary_json(const Scene& scene, const SolveSummary& s) {
   nlohmann::json j;
   j["scene"] = scene.source;
-  j["load"] = {{"input_vertices", scene.stats.input_vertices}, {"input_faces", scene.stats.input_faces},
-               {"welded_vertices", scene.stats.welded_vertices}, {"dropped_degenerate", scene.stats.dropped_degenerate},
-               {"split_nonplanar", scene.stats.split_nonplanar}, {"split_polygons", scene.stats.split_polygons},
+  j["load"] = {{"input_vertices", scene.stats.input_vertices},
+               {"input_faces", scene.stats.input_faces},
+               {"welded_vertices", scene.stats.welded_vertices},
+               {"dropped_degenerate", scene.stats.dropped_degenerate},
+               {"split_nonplanar", scene.stats.split_nonplanar},
+               {"split_polygons", scene.stats.split_polygons},
                {"missing_material_files", scene.stats.missing_material_files},
-               {"duplicate_faces", scene.stats.duplicate_faces}, {"flipped_faces", scene.stats.flipped_faces},
+               {"duplicate_faces", scene.stats.duplicate_faces},
+               {"flipped_faces", scene.stats.flipped_faces},
                {"enclosure_faces_outward", scene.stats.enclosure_faces_outward},
                {"flipped_all", scene.stats.flipped_all}};
   j["warnings"] = load_warnings(scene.stats);
   j["faces"] = s.faces;
   j["patches"] = s.patches;
   j["patch_area"] = {{"min", s.min_patch_area}, {"max", s.max_patch_area}, {"total", s.total_area}};
-  j["pairs"] = {{"total", s.pairs_total}, {"evaluated", s.fill.pairs_evaluated},
-                {"skipped_backfacing", s.fill.pairs_backfacing}, {"tested", s.fill.pairs_tested},
-                {"culled", s.fill.pairs_culled}, {"fully_occluded", s.fill.pairs_occluded}};
-  j["form_factor_checks"] = {{"min_entry", s.checks.min_entry}, {"max_entry", s.checks.max_entry},
-                             {"min_row_sum", s.checks.min_row_sum}, {"max_row_sum", s.checks.max_row_sum},
+  j["pairs"] = {{"total", s.pairs_total},
+                {"evaluated", s.fill.pairs_evaluated},
+                {"skipped_backfacing", s.fill.pairs_backfacing},
+                {"tested", s.fill.pairs_tested},
+                {"culled", s.fill.pairs_culled},
+                {"fully_occluded", s.fill.pairs_occluded}};
+  j["form_factor_checks"] = {{"min_entry", s.checks.min_entry},
+                             {"max_entry", s.checks.max_entry},
+                             {"min_row_sum", s.checks.min_row_sum},
+                             {"max_row_sum", s.checks.max_row_sum},
                              {"reciprocity_error", s.checks.reciprocity_error},
                              {"above_unoccluded", s.fill.above_unoccluded},
                              {"max_point_row_sum", s.fill.max_point_row_sum},
                              {"points_rescaled", s.fill.points_rescaled}};
-  j["visibility"] = {{"mode", s.visibility_mode}, {"reason", s.visibility_reason}, {"rays_per_pair", s.rays},
+  j["visibility"] = {{"mode", s.visibility_mode},
+                     {"reason", s.visibility_reason},
+                     {"rays_per_pair", s.rays},
                      {"rays_cast", s.fill.rays_cast + s.vertex_rays_cast}};
   j["quadrature"] = s.quadrature;
   j["lights"] = s.lights;
-  j["pair_rules"] = {{"accuracy", s.accuracy}, {"fixed", s.fill.pairs_fixed_rule}, {"gauss", s.fill.pairs_gauss},
-                     {"adaptive", s.fill.pairs_adaptive}, {"exact_rectangles", s.fill.pairs_exact_rectangles}, {"kernel_evaluations", s.fill.kernel_evaluations}};
-  j["matrix"] = {{"storage", s.matrix_storage}, {"reason", s.matrix_storage_reason}, {"bytes", s.matrix_bytes},
+  j["pair_rules"] = {{"accuracy", s.accuracy},
+                     {"fixed", s.fill.pairs_fixed_rule},
+                     {"gauss", s.fill.pairs_gauss},
+                     {"adaptive", s.fill.pairs_adaptive},
+                     {"exact_rectangles", s.fill.pairs_exact_rectangles},
+                     {"kernel_evaluations", s.fill.kernel_evaluations}};
+  j["matrix"] = {{"storage", s.matrix_storage},
+                 {"reason", s.matrix_storage_reason},
+                 {"bytes", s.matrix_bytes},
                  {"estimated_bytes", s.estimated_bytes}};
-  j["memory_estimate"] = {{"dense_bytes", s.memory.dense_bytes}, {"sparse_bytes", s.memory.sparse_bytes},
+  j["memory_estimate"] = {{"dense_bytes", s.memory.dense_bytes},     {"sparse_bytes", s.memory.sparse_bytes},
                           {"nonzero_pairs", s.memory.nonzero_pairs}, {"per_patch_bytes", s.memory.per_patch_bytes},
-                          {"limit_bytes", s.memory_limit_bytes}, {"limit_source", s.memory_limit_source}};
-  j["solver"] = {{"method", method_name(s.solver.method)}, {"seconds", s.solver.seconds}, {"iterations", s.solver.iterations}, {"residual", s.solver.residual},
-                 {"tolerance", s.tolerance}, {"channels", s.solver.channels_solved}, {"converged", s.solver.converged}};
+                          {"limit_bytes", s.memory_limit_bytes},     {"limit_source", s.memory_limit_source}};
+  j["solver"] = {
+      {"method", method_name(s.solver.method)}, {"seconds", s.solver.seconds}, {"iterations", s.solver.iterations},
+      {"residual", s.solver.residual},          {"tolerance", s.tolerance},    {"channels", s.solver.channels_solved},
+      {"converged", s.solver.converged}};
   j["output_points"] = s.output_points;
-  j["vertex_gather"] = {{"pairs_evaluated", s.vertex_pairs_evaluated}, {"pairs_tested", s.vertex_pairs_tested},
-                        {"pairs_culled", s.vertex_pairs_culled}, {"rays_cast", s.vertex_rays_cast}};
+  j["vertex_gather"] = {{"pairs_evaluated", s.vertex_pairs_evaluated},
+                        {"pairs_tested", s.vertex_pairs_tested},
+                        {"pairs_culled", s.vertex_pairs_culled},
+                        {"rays_cast", s.vertex_rays_cast}};
   j["threads"] = s.threads;
   nlohmann::json t = nlohmann::json::object();
   double total = 0.0;
-  for (const auto& [stage, sec] : s.stage_seconds) { t[stage] = sec; total += sec; }
+  for (const auto& [stage, sec] : s.stage_seconds) {
+    t[stage] = sec;
+    total += sec;
+  }
   t["total"] = total;
   j["seconds"] = t;
   j["peak_memory_bytes"] = peak_memory_bytes();
-  j["energy_w"] = {{"emitted", rgb_json(s.energy.emitted)}, {"absorbed", rgb_json(s.energy.absorbed)},
-                   {"escaped", rgb_json(s.energy.escaped)}, {"direct_in", rgb_json(s.energy.direct_in)}, {"relative_imbalance", s.energy.relative_imbalance}};
+  j["energy_w"] = {{"emitted", rgb_json(s.energy.emitted)},
+                   {"absorbed", rgb_json(s.energy.absorbed)},
+                   {"escaped", rgb_json(s.energy.escaped)},
+                   {"direct_in", rgb_json(s.energy.direct_in)},
+                   {"relative_imbalance", s.energy.relative_imbalance}};
   return j;
 }
 
@@ -108,30 +135,30 @@ std::string summary_table(const Scene& scene, const SolveSummary& s) {
                  << " m²)\n";
   row("pairs") << s.fill.pairs_evaluated << " evaluated, " << s.fill.pairs_backfacing << " skipped back-facing, "
                << s.fill.pairs_occluded << " fully occluded\n";
-  if (s.fill.pairs_tested) row("shaft culling") << s.fill.pairs_culled << " of " << s.fill.pairs_tested
-                                                << " pairs need no visibility (" << std::setprecision(3)
-                                                << 100.0 * s.fill.pairs_culled / s.fill.pairs_tested << "%)\n";
+  if (s.fill.pairs_tested)
+    row("shaft culling") << s.fill.pairs_culled << " of " << s.fill.pairs_tested << " pairs need no visibility ("
+                         << std::setprecision(3) << 100.0 * s.fill.pairs_culled / s.fill.pairs_tested << "%)\n";
   row("form factors") << "F in [" << std::setprecision(3) << s.checks.min_entry << ", " << s.checks.max_entry
-                      << "], row sums " << std::setprecision(10) << s.checks.min_row_sum << " .. " << s.checks.max_row_sum
-                      << ", reciprocity " << std::setprecision(3) << s.checks.reciprocity_error << "\n";
+                      << "], row sums " << std::setprecision(10) << s.checks.min_row_sum << " .. "
+                      << s.checks.max_row_sum << ", reciprocity " << std::setprecision(3) << s.checks.reciprocity_error
+                      << "\n";
   row("visibility") << s.visibility_mode << " — " << s.visibility_reason << "\n";
   if (s.rays) row("rays") << s.fill.rays_cast + s.vertex_rays_cast << " cast (" << s.rays << " per pair)\n";
   if (s.fill.pairs_gauss + s.fill.pairs_adaptive + s.fill.pairs_exact_rectangles > 0)
     row("pair rules") << "accuracy " << s.accuracy << ": " << s.fill.pairs_gauss << " Gauss (far), "
                       << s.fill.pairs_adaptive << " adaptive (near/touching), " << s.fill.pairs_exact_rectangles
-                      << " exact (aligned rectangles), " << s.fill.pairs_fixed_rule
-                      << " fixed-rule (occluded)\n";
-  else
-    row("quadrature") << s.quadrature << (s.quadrature == 1 ? " (centroid)" : " (Gauss)") << "\n";
+                      << " exact (aligned rectangles), " << s.fill.pairs_fixed_rule << " fixed-rule (occluded)\n";
+  else row("quadrature") << s.quadrature << (s.quadrature == 1 ? " (centroid)" : " (Gauss)") << "\n";
   row("matrix") << s.matrix_storage << ", " << format_bytes(s.matrix_bytes) << " (" << s.matrix_storage_reason << ")\n";
-  row("memory estimate") << format_bytes(s.estimated_bytes) << " for this run; " << format_bytes(s.memory.dense_bytes) << " dense, " << format_bytes(s.memory.sparse_bytes)
-                         << " sparse (" << format_count(s.memory.nonzero_pairs) << " pairs facing); limit "
+  row("memory estimate") << format_bytes(s.estimated_bytes) << " for this run; " << format_bytes(s.memory.dense_bytes)
+                         << " dense, " << format_bytes(s.memory.sparse_bytes) << " sparse ("
+                         << format_count(s.memory.nonzero_pairs) << " pairs facing); limit "
                          << format_bytes(s.memory_limit_bytes) << " (" << s.memory_limit_source << ")\n";
   row("solver") << method_name(s.solver.method) << ", " << s.solver.iterations
                 << (s.solver.method == SolverMethod::GaussSeidel || s.solver.method == SolverMethod::Sor ? " sweeps"
-                    : s.solver.method == SolverMethod::Direct ? " LU solves" : " products")
-                << ", residual " << std::setprecision(3)
-                << s.solver.residual << ", " << s.solver.channels_solved
+                    : s.solver.method == SolverMethod::Direct                                            ? " LU solves"
+                                                                                                         : " products")
+                << ", residual " << std::setprecision(3) << s.solver.residual << ", " << s.solver.channels_solved
                 << (s.solver.channels_solved == 1 ? " channel (all grey)" : " channels") << "\n";
   row("output points") << s.output_points << "\n";
   row("emitted W") << rgb(s.energy.emitted) << "\n";
@@ -142,7 +169,10 @@ std::string summary_table(const Scene& scene, const SolveSummary& s) {
   row("energy imbalance") << std::setprecision(3) << s.energy.relative_imbalance << "\n";
   double total = 0.0;
   std::ostringstream st;
-  for (const auto& [stage, sec] : s.stage_seconds) { st << " " << stage << " " << std::setprecision(3) << sec; total += sec; }
+  for (const auto& [stage, sec] : s.stage_seconds) {
+    st << " " << stage << " " << std::setprecision(3) << sec;
+    total += sec;
+  }
   row("time s") << std::setprecision(3) << total << " (" << st.str().substr(1) << ")\n";
   row("threads") << s.threads << "\n";
   row("peak memory") << std::setprecision(4) << peak_memory_bytes() / 1048576.0 << " MiB\n";

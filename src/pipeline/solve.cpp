@@ -6,8 +6,8 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
-#include <iomanip>
 #include <cmath>
+#include <iomanip>
 #include <memory>
 #include <sstream>
 #include <stdexcept>
@@ -69,7 +69,10 @@ void split_output_points(const Scene& scene, SolveResult& r) {
       const int v = p.corners[k];
       int found = -1;
       for (int o : at_vertex[v])
-        if (r.points[o].material == material && r.points[o].normal.dot(p.normal) > 1.0 - 1e-9) { found = o; break; }
+        if (r.points[o].material == material && r.points[o].normal.dot(p.normal) > 1.0 - 1e-9) {
+          found = o;
+          break;
+        }
       if (found < 0) {
         found = static_cast<int>(r.points.size());
         r.points.push_back({mesh.points[v], p.normal, Vec3::Zero(), material});
@@ -102,7 +105,8 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
   const FacingGroups facing_runs(mesh, tol);
   // The factors from each point (formfactors/point_factors.h): one per thread.
   std::vector<PointFactors> point_factors;
-  for (int t = 0; t < omp_get_max_threads(); ++t) point_factors.emplace_back(mesh, sources, facing_runs, vis, tol, opt.rays);
+  for (int t = 0; t < omp_get_max_threads(); ++t)
+    point_factors.emplace_back(mesh, sources, facing_runs, vis, tol, opt.rays);
   // Points at one position (split at a crease or a material change) in a row, handled by one
   // thread: the visibility from a position is computed once (PointVisibility::set_receiver).
   std::vector<int> order(size_t(np), 0), group_start;
@@ -174,8 +178,9 @@ EnergyBalance energy_balance(const Eigen::VectorXd& row_sums, const ChannelMatri
 // and after, from the mesh.
 StorageChoice check_memory(const MemoryEstimate& estimate, double patches, const SolveOptions& opt, SolveSummary& s) {
   s.memory = estimate;
-  const StorageChoice c = choose_storage(opt.matrix_layout, opt.matrix_precision, patches, double(s.memory.nonzero_pairs),
-                                         s.memory.per_patch_bytes * patches, opt.max_memory_bytes);
+  const StorageChoice c =
+      choose_storage(opt.matrix_layout, opt.matrix_precision, patches, double(s.memory.nonzero_pairs),
+                     s.memory.per_patch_bytes * patches, opt.max_memory_bytes);
   s.matrix_storage = c.storage;
   s.matrix_storage_reason = c.reason;
   s.estimated_bytes = c.estimated_bytes;
@@ -204,8 +209,9 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
   bool emits = !lights.empty();
   for (const Face& f : scene.faces) emits = emits || (scene.materials[f.material].emission > 0).any();
   if (!emits)
-    throw_bad_input(scene.source + ": nothing to solve: no face emits light and there are no lights "
-                                   "(set Ke in the .mtl, --emission, or \"lights\" in a scene file)");
+    throw_bad_input(scene.source +
+                    ": nothing to solve: no face emits light and there are no lights "
+                    "(set Ke in the .mtl, --emission, or \"lights\" in a scene file)");
 
   {
     const PatchGrid grid = count_patches(scene, opt.patching);

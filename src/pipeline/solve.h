@@ -23,15 +23,15 @@
 namespace photometria {
 
 struct SolveOptions {
-  PatchingOptions patching;                  // patch size limits
-  int quadrature = 1;                        // receiver rule order, 1 = centroid
-  double accuracy = 0.0;                     // > 0: per-pair rule to this relative accuracy for
-                                             // pairs nothing can block (formfactors/pair_integration.h)
+  PatchingOptions patching;  // patch size limits
+  int quadrature = 1;        // receiver rule order, 1 = centroid
+  double accuracy = 0.0;     // > 0: per-pair rule to this relative accuracy for
+                             // pairs nothing can block (formfactors/pair_integration.h)
   VisibilityMode visibility = VisibilityMode::Auto;
-  int rays = 576;                            // rays per (receiver point, patch) in ray mode (fill and vertex gather)
-  uint64_t seed = 1;                         // ray sampling seed
+  int rays = 576;     // rays per (receiver point, patch) in ray mode (fill and vertex gather)
+  uint64_t seed = 1;  // ray sampling seed
   SolverOptions solver;
-  int threads = 0;                           // 0 = all cores
+  int threads = 0;  // 0 = all cores
   // Refuse (BadInput) before the form-factor fill when the estimated memory (pipeline/memory.h,
   // the storage actually used) exceeds this many bytes; 0 = MemAvailable from /proc/meminfo.
   double max_memory_bytes = 0.0;
@@ -47,11 +47,12 @@ struct SolveOptions {
 };
 
 struct EnergyBalance {
-  Rgb emitted = Rgb::Zero();   // Σ A_i E_i, W
-  Rgb direct_in = Rgb::Zero(); // Σ A_i H_direct,i: arriving from analytic lights, W
-  Rgb absorbed = Rgb::Zero();  // Σ A_i (1 − ρ_i) H_i, W
-  Rgb escaped = Rgb::Zero();   // Σ A_i B_i (1 − Σ_j F_ij): leaves through openings, W
-  double relative_imbalance = 0.0;  // max over channels |emitted + direct_in − absorbed − escaped| / (emitted + direct_in)
+  Rgb emitted = Rgb::Zero();    // Σ A_i E_i, W
+  Rgb direct_in = Rgb::Zero();  // Σ A_i H_direct,i: arriving from analytic lights, W
+  Rgb absorbed = Rgb::Zero();   // Σ A_i (1 − ρ_i) H_i, W
+  Rgb escaped = Rgb::Zero();    // Σ A_i B_i (1 − Σ_j F_ij): leaves through openings, W
+  double relative_imbalance =
+      0.0;  // max over channels |emitted + direct_in − absorbed − escaped| / (emitted + direct_in)
 };
 
 struct SolveSummary {
@@ -73,11 +74,11 @@ struct SolveSummary {
   long long vertex_pairs_evaluated = 0;
   long long vertex_rays_cast = 0;
   long long vertex_pairs_tested = 0, vertex_pairs_culled = 0;  // shaft tests in the gather
-  std::string matrix_storage;     // "dense double", "sparse float", ... (what was used)
-  std::string matrix_storage_reason;  // why (requested, or auto from the estimate)
-  double matrix_bytes = 0.0;      // bytes of the stored matrix (after the fill)
-  double estimated_bytes = 0.0;   // the estimate the memory limit was checked against
-  MemoryEstimate memory;          // estimated before the fill
+  std::string matrix_storage;                                  // "dense double", "sparse float", ... (what was used)
+  std::string matrix_storage_reason;                           // why (requested, or auto from the estimate)
+  double matrix_bytes = 0.0;                                   // bytes of the stored matrix (after the fill)
+  double estimated_bytes = 0.0;                                // the estimate the memory limit was checked against
+  MemoryEstimate memory;                                       // estimated before the fill
   double memory_limit_bytes = 0.0;
   std::string memory_limit_source;  // "--max-memory" or "MemAvailable"
   int threads = 1;
@@ -102,7 +103,8 @@ struct SolveResult {
 };
 
 // Throws photometria::Error: BadInput when there is nothing to solve (no emitter), a material
-// is out of range or the memory estimate exceeds the limit (options.max_memory_bytes), NotConverged when the solver hits its iteration cap.
+// is out of range or the memory estimate exceeds the limit (options.max_memory_bytes), NotConverged when the solver
+// hits its iteration cap.
 SolveResult solve_scene(const Scene& scene, const SolveOptions& options);
 
 // Peak resident memory of this process so far, bytes.

@@ -38,8 +38,10 @@ json parse_scene(const std::string& path, const std::string& text) {
     const size_t q1 = what.find('\''), q2 = q1 == std::string::npos ? q1 : what.find('\'', q1 + 1);
     const std::string number = q2 == std::string::npos ? std::string() : what.substr(q1 + 1, q2 - q1 - 1);
     const size_t pos = number.empty() ? std::string::npos : text.find(number);
-    const long line = pos == std::string::npos ? 0 : 1 + std::count(text.begin(), text.begin() + static_cast<long>(pos), '\n');
-    throw_bad_input(at(path, line) + ": number " + in_quotes(number) + " is not a finite number (too large for a double)");
+    const long line =
+        pos == std::string::npos ? 0 : 1 + std::count(text.begin(), text.begin() + static_cast<long>(pos), '\n');
+    throw_bad_input(at(path, line) + ": number " + in_quotes(number) +
+                    " is not a finite number (too large for a double)");
   }
 }
 
@@ -91,7 +93,8 @@ void add_meshes(RawScene& raw, const json& meshes, const std::string& path, cons
     if (!m.contains("file") || !m["file"].is_string())
       throw_bad_input(at(path) + ": " + where + ".file must be the name of a mesh file");
     LoadOptions mesh_options = options;  // the entry's defaults for faces without a material
-    if (m.contains("reflectance")) mesh_options.default_reflectance = colour(path, m["reflectance"], where + ".reflectance");
+    if (m.contains("reflectance"))
+      mesh_options.default_reflectance = colour(path, m["reflectance"], where + ".reflectance");
     if (m.contains("emission")) mesh_options.default_emission = colour(path, m["emission"], where + ".emission");
     const std::string file = resolve(path, m["file"].get<std::string>());
     if (lower_extension(file) == ".json")
@@ -168,7 +171,8 @@ void apply_overrides(RawScene& raw, const json& materials, const std::string& pa
   for (const auto& item : materials.items())
     used[item.key()] |= override_group(raw, item.key(), read_override(path, item.key(), item.value()));
   for (const auto& [name, found] : used)
-    if (!found) throw_bad_input(at(path) + ": materials: " + in_quotes(name) + " is neither a material nor a group name");
+    if (!found)
+      throw_bad_input(at(path) + ": materials: " + in_quotes(name) + " is neither a material nor a group name");
 }
 
 void copy_settings(Scene& scene, const json& j, const std::string& path) {
@@ -178,7 +182,8 @@ void copy_settings(Scene& scene, const json& j, const std::string& path) {
   }
   if (j.contains("lights")) {
     if (!j["lights"].is_array()) throw_bad_input(at(path) + ": 'lights' must be an array");
-    if (scene.settings.contains("lights")) throw_bad_input(at(path) + ": 'lights' given both at the top and in 'settings'");
+    if (scene.settings.contains("lights"))
+      throw_bad_input(at(path) + ": 'lights' given both at the top and in 'settings'");
     scene.settings["lights"] = j["lights"];
   }
 }

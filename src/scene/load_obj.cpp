@@ -112,8 +112,9 @@ void add_faces(RawScene& raw, const std::vector<tinyobj::shape_t>& shapes, const
         face.vertices.push_back(shape.mesh.indices[offset + k].vertex_index);
       offset += shape.mesh.num_face_vertices[f];
       const int id = shape.mesh.material_ids[f];
-      face.material = id >= 0 ? mtl_index[static_cast<size_t>(id)]
-                              : fallback_material(raw, scan.face_material.at(static_cast<size_t>(face_no)), options, path);
+      face.material = id >= 0
+                          ? mtl_index[static_cast<size_t>(id)]
+                          : fallback_material(raw, scan.face_material.at(static_cast<size_t>(face_no)), options, path);
       face.group = group;
       face.source_face = face_no;
       raw.scene.faces.push_back(std::move(face));

@@ -38,8 +38,8 @@ RawScene read_view3d(const std::string& path, const LoadOptions& options) {
   nlohmann::json control = nlohmann::json::object();
   bool have_format = false, ended = false;
   std::set<std::string> names;
-  static const std::set<std::string> known_keys = {"eps", "maxu", "maxo", "mino", "row", "col", "encl",
-                                                   "emit", "out", "list", "maxv", "prjd", "maxd"};
+  static const std::set<std::string> known_keys = {"eps",  "maxu", "maxo", "mino", "row",  "col", "encl",
+                                                   "emit", "out",  "list", "maxv", "prjd", "maxd"};
   for_each_line(text, [&](long line, std::string_view l) {
     if (ended) return;
     const auto where = [&] { return at(path, line); };
@@ -58,7 +58,8 @@ RawScene read_view3d(const std::string& path, const LoadOptions& options) {
         // "key=value" or "key= value" (View3D's own examples use both).
         std::string key(t[k]), value;
         const size_t eq = key.find('=');
-        if (eq == std::string::npos) throw_bad_input(where() + ": control entry " + in_quotes(t[k]) + " is not key=value");
+        if (eq == std::string::npos)
+          throw_bad_input(where() + ": control entry " + in_quotes(t[k]) + " is not key=value");
         value = key.substr(eq + 1);
         key = key.substr(0, eq);
         if (value.empty() && k + 1 < t.size()) value = std::string(t[++k]);
@@ -66,7 +67,8 @@ RawScene read_view3d(const std::string& path, const LoadOptions& options) {
         for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
         if (!known_keys.count(lower)) throw_bad_input(where() + ": unsupported control key " + in_quotes(key));
         double v = 0.0;
-        if (!parse_number(value, v)) throw_bad_input(where() + ": control " + key + " value " + in_quotes(value) + " is not a number");
+        if (!parse_number(value, v))
+          throw_bad_input(where() + ": control " + key + " value " + in_quotes(value) + " is not a number");
         control[lower] = v;
       }
     } else if (rec == "F") {
@@ -98,8 +100,10 @@ RawScene read_view3d(const std::string& path, const LoadOptions& options) {
         throw_bad_input(where() + ": surface number " + std::to_string(n) + " out of sequence (expected " +
                         std::to_string(s.stats.input_faces + 1) + ")");
       if (base != 0) throw_bad_input(where() + ": subsurfaces (base = " + std::to_string(base) + ") are not supported");
-      if (cmbn != 0) throw_bad_input(where() + ": combined surfaces (cmbn = " + std::to_string(cmbn) + ") are not supported");
-      if (!(emit >= 0.0 && emit <= 1.0)) throw_bad_input(where() + ": emissivity " + in_quotes(t[8]) + " outside [0, 1]");
+      if (cmbn != 0)
+        throw_bad_input(where() + ": combined surfaces (cmbn = " + std::to_string(cmbn) + ") are not supported");
+      if (!(emit >= 0.0 && emit <= 1.0))
+        throw_bad_input(where() + ": emissivity " + in_quotes(t[8]) + " outside [0, 1]");
       const int count = v[3] == 0 ? 3 : 4;
       Face face;
       for (int k = 0; k < count; ++k) {

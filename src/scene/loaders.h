@@ -27,7 +27,8 @@ bool is_readable_file(const std::string& path);
 std::string lower_extension(const std::string& path);  // ".obj"; "" when there is none
 std::string file_stem(const std::string& path);
 // Calls f(line_number, line) for every line ("\n", "\r\n" or "\r" endings), numbered from 1.
-template <class F> void for_each_line(std::string_view text, F&& f);
+template <class F>
+void for_each_line(std::string_view text, F&& f);
 // Whitespace-separated tokens, stopping at a '#' comment.
 std::vector<std::string_view> split_tokens(std::string_view line);
 // The whole token as a number (leading '+' allowed; nan/inf parse and are left to the caller).
@@ -46,10 +47,10 @@ int add_group(Scene& scene, const std::string& name);
 
 // One mesh file of any supported format, checked to have faces; .json is refused here.
 RawScene read_mesh_file(const std::string& path, const LoadOptions& options);
-RawScene read_obj(const std::string& path, const LoadOptions& options);        // load_obj.cpp
-RawScene read_openmesh(const std::string& path, const LoadOptions& options);   // load_openmesh.cpp
-RawScene read_json_scene(const std::string& path, const LoadOptions& options); // load_json.cpp
-RawScene read_view3d(const std::string& path, const LoadOptions& options);     // load_view3d.cpp (.vs3)
+RawScene read_obj(const std::string& path, const LoadOptions& options);         // load_obj.cpp
+RawScene read_openmesh(const std::string& path, const LoadOptions& options);    // load_openmesh.cpp
+RawScene read_json_scene(const std::string& path, const LoadOptions& options);  // load_json.cpp
+RawScene read_view3d(const std::string& path, const LoadOptions& options);      // load_view3d.cpp (.vs3)
 
 // obj_scan.cpp: the validation pass over OBJ text that tinyobjloader does not do (it accepts
 // garbage numbers as 0 and out-of-range indices). Also records per face the `usemtl` name in
@@ -76,8 +77,8 @@ void check_mesh_text(const std::string& path, const std::string& extension);
 
 // weld.cpp: maps each point with used[i] to the first earlier used point within `tolerance`
 // (itself if there is none); unused points map to -1. `merged` counts the points mapped away.
-std::vector<int> weld_points(const std::vector<Vec3>& points, const std::vector<bool>& used,
-                             double tolerance, int& merged);
+std::vector<int> weld_points(const std::vector<Vec3>& points, const std::vector<bool>& used, double tolerance,
+                             int& merged);
 
 // clean.cpp: welds, drops degenerate faces, splits non-planar / non-convex / n > 4 polygons,
 // drops unused vertices.
@@ -101,7 +102,8 @@ void check_materials(const RawScene& raw);
 
 // --- template definition -----------------------------------------------------------------------
 
-template <class F> void for_each_line(std::string_view text, F&& f) {
+template <class F>
+void for_each_line(std::string_view text, F&& f) {
   long number = 0;
   size_t start = 0;
   while (start < text.size()) {

@@ -27,7 +27,8 @@ void append_scene(RawScene& into, RawScene&& part) {
   Scene& s = into.scene;
   Scene& p = part.scene;
   std::vector<int> material(p.materials.size()), group(p.groups.size());
-  for (size_t i = 0; i < p.materials.size(); ++i) material[i] = add_material(into, p.materials[i], part.material_origin[i]);
+  for (size_t i = 0; i < p.materials.size(); ++i)
+    material[i] = add_material(into, p.materials[i], part.material_origin[i]);
   for (size_t i = 0; i < p.groups.size(); ++i) group[i] = add_group(s, p.groups[i]);
 
   const int vertex_offset = static_cast<int>(s.vertices.size());

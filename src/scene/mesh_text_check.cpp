@@ -59,7 +59,8 @@ class Checker {
     const long k = integer(l.number, l.tokens[0], "face vertex count");
     if (k < 3) fail(l.number, "face with " + std::to_string(k) + " vertices (a face needs at least 3)");
     if (static_cast<long>(l.tokens.size()) < k + 1)
-      fail(l.number, "face lists " + std::to_string(l.tokens.size() - 1) + " of its " + std::to_string(k) + " vertices");
+      fail(l.number,
+           "face lists " + std::to_string(l.tokens.size() - 1) + " of its " + std::to_string(k) + " vertices");
     for (long j = 1; j <= k; ++j) {
       const long i = integer(l.number, l.tokens[static_cast<size_t>(j)], "face index");
       if (i < 0 || i >= vertices)
@@ -116,7 +117,8 @@ void check_ply(const std::string& path, std::string_view text) {
   for (; i < lines.size() && lines[i].tokens[0] != "end_header"; ++i) {
     const Tokens& t = lines[i].tokens;
     if (t[0] == "format") ascii = t.size() > 1 && t[1] == "ascii";
-    if (t[0] == "element" && t.size() > 2) elements.emplace_back(t[1], check.integer(lines[i].number, t[2], "element count"));
+    if (t[0] == "element" && t.size() > 2)
+      elements.emplace_back(t[1], check.integer(lines[i].number, t[2], "element count"));
   }
   if (!ascii || i == lines.size()) return;  // binary, or a header OpenMesh will refuse
   ++i;
@@ -145,7 +147,8 @@ void check_stl(const std::string& path, std::string_view text) {
   const Checker check(path);
   for (const Line& l : content_lines(text)) {
     if (l.tokens[0] != "vertex") continue;
-    if (l.tokens.size() != 4) check.fail(l.number, "vertex needs 3 coordinates, got " + std::to_string(l.tokens.size() - 1));
+    if (l.tokens.size() != 4)
+      check.fail(l.number, "vertex needs 3 coordinates, got " + std::to_string(l.tokens.size() - 1));
     for (size_t k = 1; k < 4; ++k) check.coordinate(l.number, l.tokens[k]);
   }
 }

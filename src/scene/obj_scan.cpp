@@ -64,8 +64,9 @@ class ObjScanner {
   void numbers(long n, const Tokens& t, size_t min, size_t max, const char* what) {
     const size_t count = t.size() - 1;
     if (count < min || count > max)
-      fail(path_, n, std::string(t[0]) + " needs " + std::to_string(min) +
-                         (min == max ? "" : " to " + std::to_string(max)) + " numbers, got " + std::to_string(count));
+      fail(path_, n,
+           std::string(t[0]) + " needs " + std::to_string(min) + (min == max ? "" : " to " + std::to_string(max)) +
+               " numbers, got " + std::to_string(count));
     for (size_t k = 1; k < t.size(); ++k) finite_number(path_, n, t[k], what);
   }
 
@@ -97,8 +98,9 @@ class ObjScanner {
     if (!parse_integer(token, i)) fail(path_, n, "bad face vertex " + in_quotes(ref));
     if (i == 0) fail(path_, n, std::string(what) + " 0 is invalid (OBJ indices start at 1)");
     if (i > available || -i > available)
-      fail(path_, n, std::string(what) + " " + std::to_string(i) + " out of range (" + std::to_string(available) +
-                         " " + things + " so far)");
+      fail(path_, n,
+           std::string(what) + " " + std::to_string(i) + " out of range (" + std::to_string(available) + " " + things +
+               " so far)");
   }
 
   const std::string& path_;
@@ -109,8 +111,7 @@ class ObjScanner {
 
 std::optional<Rgb> mtl_colour(const std::string& path, long n, const Tokens& t) {
   const std::string key(t[0]);
-  if (t.size() != 2 && t.size() != 4)
-    fail(path, n, key + " needs 1 or 3 numbers, got " + std::to_string(t.size() - 1));
+  if (t.size() != 2 && t.size() != 4) fail(path, n, key + " needs 1 or 3 numbers, got " + std::to_string(t.size() - 1));
   const std::string what = key + " value";
   Rgb c;
   for (int k = 0; k < 3; ++k) c[k] = finite_number(path, n, t[t.size() == 2 ? 1 : k + 1], what.c_str());

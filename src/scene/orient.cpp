@@ -47,14 +47,18 @@ EdgeMap edge_uses(const Scene& s) {
 }
 
 int find(std::vector<int>& parent, int x) {
-  while (parent[static_cast<size_t>(x)] != x) x = parent[static_cast<size_t>(x)] = parent[static_cast<size_t>(parent[static_cast<size_t>(x)])];
+  while (parent[static_cast<size_t>(x)] != x)
+    x = parent[static_cast<size_t>(x)] = parent[static_cast<size_t>(parent[static_cast<size_t>(x)])];
   return x;
 }
 
 struct Box {
   Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity());
   Vec3 hi = Vec3::Constant(-std::numeric_limits<double>::infinity());
-  void add(const Vec3& p) { lo = lo.cwiseMin(p); hi = hi.cwiseMax(p); }
+  void add(const Vec3& p) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
 };
 
 }  // namespace
@@ -67,7 +71,8 @@ void fix_orientation(Scene& s, bool flip_inconsistent) {
   std::vector<int> parent(static_cast<size_t>(n));
   std::iota(parent.begin(), parent.end(), 0);
   for (const auto& [e, uses] : edges)
-    for (size_t k = 1; k < uses.size(); ++k) parent[static_cast<size_t>(find(parent, uses[k].face))] = find(parent, uses[0].face);
+    for (size_t k = 1; k < uses.size(); ++k)
+      parent[static_cast<size_t>(find(parent, uses[k].face))] = find(parent, uses[0].face);
   std::vector<bool> closed(static_cast<size_t>(n), true);
   for (const auto& [e, uses] : edges)
     if (uses.size() != 2) closed[static_cast<size_t>(find(parent, uses[0].face))] = false;
@@ -124,8 +129,8 @@ void fix_orientation(Scene& s, bool flip_inconsistent) {
     Box box;
     for (int f : faces)
       for (int v : s.faces[static_cast<size_t>(f)].vertices) box.add(s.vertices[static_cast<size_t>(v)]);
-    const bool encloses = (box.lo.array() <= scene_box.lo.array() + tol).all() &&
-                          (box.hi.array() >= scene_box.hi.array() - tol).all();
+    const bool encloses =
+        (box.lo.array() <= scene_box.lo.array() + tol).all() && (box.hi.array() >= scene_box.hi.array() - tol).all();
     if (encloses && signed_volume(s, faces) > 0) s.stats.enclosure_faces_outward = true;
   }
 }

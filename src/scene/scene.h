@@ -38,15 +38,16 @@ struct Material {
   std::string name;
   Rgb reflectance = Rgb::Constant(0.5);  // diffuse reflectance ρ per channel, each in [0, 1)
   Rgb emission = Rgb::Zero();            // emitted exitance E per channel, W/m², >= 0
-  bool is_grey() const { return reflectance.isApproxToConstant(reflectance[0], 0.0) &&
-                                emission.isApproxToConstant(emission[0], 0.0); }
+  bool is_grey() const {
+    return reflectance.isApproxToConstant(reflectance[0], 0.0) && emission.isApproxToConstant(emission[0], 0.0);
+  }
 };
 
 struct Face {
-  std::vector<int> vertices;  // 3 or 4 indices into Scene::vertices, counter-clockwise from the front
-  int material = 0;           // index into Scene::materials
-  int group = 0;              // index into Scene::groups (OBJ g/o name, or one group per mesh file)
-  int source_face = 0;        // index of the face in the input (split faces share it)
+  std::vector<int> vertices;      // 3 or 4 indices into Scene::vertices, counter-clockwise from the front
+  int material = 0;               // index into Scene::materials
+  int group = 0;                  // index into Scene::groups (OBJ g/o name, or one group per mesh file)
+  int source_face = 0;            // index of the face in the input (split faces share it)
   bool obstruction_only = false;  // blocks light but neither emits nor receives (View3D `O` surface):
                                   // no patches, still an occluder for visibility
 };
@@ -55,15 +56,15 @@ struct Face {
 struct LoadStats {
   int input_vertices = 0;
   int input_faces = 0;
-  int welded_vertices = 0;        // vertices merged into an earlier coincident one
-  int dropped_degenerate = 0;     // zero-area faces removed
-  int split_nonplanar = 0;        // non-planar polygons split into triangles
-  int split_polygons = 0;         // convex-planar n-gons (n > 4) or non-convex polygons triangulated
-  int missing_material_files = 0; // mtllib files that could not be read (defaults used)
-  int duplicate_faces = 0;        // faces equal to an earlier one (same vertices and winding), dropped
-  int flipped_faces = 0;          // faces wound against the rest of their closed surface, flipped
+  int welded_vertices = 0;               // vertices merged into an earlier coincident one
+  int dropped_degenerate = 0;            // zero-area faces removed
+  int split_nonplanar = 0;               // non-planar polygons split into triangles
+  int split_polygons = 0;                // convex-planar n-gons (n > 4) or non-convex polygons triangulated
+  int missing_material_files = 0;        // mtllib files that could not be read (defaults used)
+  int duplicate_faces = 0;               // faces equal to an earlier one (same vertices and winding), dropped
+  int flipped_faces = 0;                 // faces wound against the rest of their closed surface, flipped
   bool enclosure_faces_outward = false;  // the closed surface around the scene faces out (see flip_normals)
-  bool flipped_all = false;       // LoadOptions::flip_normals was applied
+  bool flipped_all = false;              // LoadOptions::flip_normals was applied
 };
 
 // One line per counted warning ("3 duplicate faces dropped"), empty when loading changed nothing
@@ -71,7 +72,7 @@ struct LoadStats {
 std::vector<std::string> load_warnings(const LoadStats& stats);
 
 struct Scene {
-  std::string source;               // path it was loaded from
+  std::string source;  // path it was loaded from
   std::vector<Vec3> vertices;
   std::vector<Face> faces;
   std::vector<Material> materials;
@@ -86,9 +87,9 @@ struct LoadOptions {
   Rgb default_reflectance = Rgb::Constant(0.5);  // for formats without materials
   Rgb default_emission = Rgb::Zero();            // for formats without materials, W/m²
   double weld_tolerance = 1e-9;                  // relative to the bounding-box diagonal
-  double planarity_tolerance = 1e-6;             // max vertex distance from the face plane, relative to the face's diameter
-  bool flip_normals = false;                     // reverse the winding of every face (inside-out exports)
-  bool fix_orientation = true;                   // flip faces wound against their closed surface
+  double planarity_tolerance = 1e-6;  // max vertex distance from the face plane, relative to the face's diameter
+  bool flip_normals = false;          // reverse the winding of every face (inside-out exports)
+  bool fix_orientation = true;        // flip faces wound against their closed surface
 };
 
 // Loads and cleans a scene. Throws photometria::Error (file, line, value) on bad input; checks

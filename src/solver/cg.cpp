@@ -94,7 +94,10 @@ ChannelResult cg_channel(const ChannelProblem& p, const Eigen::VectorXd& A, cons
         if (w[i] == 0.0) q[i] = 0.0;
       Kp = dir - p.rho.cwiseProduct(Fp);  // K p, for the true residual
       const double pq = dir.dot(q);
-      if (!(pq > 0.0)) { indefinite = true; break; }
+      if (!(pq > 0.0)) {
+        indefinite = true;
+        break;
+      }
       // PCG step (Saad 2003, Algorithm 9.1)
       const double alpha = rz / pq;
       B += alpha * dir;
@@ -121,9 +124,8 @@ ChannelResult cg_channel(const ChannelProblem& p, const Eigen::VectorXd& A, cons
     }
     if (rel <= opt.tolerance) break;
     if (indefinite || rel > 0.5 * cycle_start) {
-      detail << "cg: " << (indefinite ? "symmetric part not positive definite" : "refinement stalled")
-             << " after " << matvecs << " products (relative residual " << rel
-             << "); continued with gmres";
+      detail << "cg: " << (indefinite ? "symmetric part not positive definite" : "refinement stalled") << " after "
+             << matvecs << " products (relative residual " << rel << "); continued with gmres";
       ChannelResult g = gmres_channel(p, opt, B, matvecs);
       g.fell_back = true;
       g.detail = detail.str();

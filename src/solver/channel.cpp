@@ -20,7 +20,7 @@ void gauss_seidel_sweep(const FormFactors& F, Eigen::VectorXd& B, const std::fun
     // Columns before the block hold this sweep's values, columns after it the last sweep's.
 #pragma omp for schedule(static)
     for (int i = r0; i < r1; ++i) outside[i - r0] = F.row_dot(i, B, 0, r0) + F.row_dot(i, B, r1, n);
-    // (the implied barrier: every outside sum is in before the block's rows change B)
+      // (the implied barrier: every outside sum is in before the block's rows change B)
 #pragma omp single
     for (int i = r0; i < r1; ++i) B[i] = new_value(i, outside[i - r0] + F.row_dot(i, B, r0, r1));
   }

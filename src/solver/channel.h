@@ -15,14 +15,14 @@ namespace photometria {
 
 struct ChannelProblem {
   const FormFactors& F;  // N × N, row i = receiver
-  Eigen::VectorXd E;          // emission, W/m²
-  Eigen::VectorXd rho;        // reflectance in [0, 1)
-  Eigen::VectorXd H;          // direct irradiance, W/m²
+  Eigen::VectorXd E;     // emission, W/m²
+  Eigen::VectorXd rho;   // reflectance in [0, 1)
+  Eigen::VectorXd H;     // direct irradiance, W/m²
 };
 
 struct ChannelResult {
-  int iterations = 0;      // sweeps or matrix-vector products
-  double residual = 0.0;   // final relative residual (definition in solver.h)
+  int iterations = 0;     // sweeps or matrix-vector products
+  double residual = 0.0;  // final relative residual (definition in solver.h)
   bool converged = false;
   bool fell_back = false;  // cg only: finished with gmres
   std::string detail;

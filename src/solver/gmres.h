@@ -17,7 +17,7 @@ namespace photometria {
 
 // Continues from the B given (N entries; pass B = E for a cold start). `used` matrix-vector
 // products already spent count against options.max_iterations; the result's iterations include them.
-ChannelResult gmres_channel(const ChannelProblem& p, const SolverOptions& options, Eigen::VectorXd& B,
-                            int used = 0, int restart = 30);
+ChannelResult gmres_channel(const ChannelProblem& p, const SolverOptions& options, Eigen::VectorXd& B, int used = 0,
+                            int restart = 30);
 
 }  // namespace photometria

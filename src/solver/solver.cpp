@@ -90,12 +90,11 @@ SolverReport solve_radiosity(const FormFactors& F, const ChannelMatrix& E, const
     throw_bad_input("solver cg: the symmetric formulation needs the patch areas (SolverOptions::areas)");
   if (report.method == SolverMethod::Direct && n > options.direct_max_patches) {
     std::ostringstream s;
-    s << "solver direct: " << n << " patches > limit " << options.direct_max_patches
-      << " (a dense LU needs " << 8.0 * n * n / 1e9 << " GB and ~" << 2.0 * n * n * n / 3e9 << " Gflop)";
+    s << "solver direct: " << n << " patches > limit " << options.direct_max_patches << " (a dense LU needs "
+      << 8.0 * n * n / 1e9 << " GB and ~" << 2.0 * n * n * n / 3e9 << " Gflop)";
     throw_bad_input(s.str());
   }
-  if (report.method == SolverMethod::Sor)
-    report.omega = options.omega > 0 ? options.omega : young_omega(F, rho.col(0));
+  if (report.method == SolverMethod::Sor) report.omega = options.omega > 0 ? options.omega : young_omega(F, rho.col(0));
   if (report.method == SolverMethod::Sor && !(report.omega > 0 && report.omega < 2)) {
     std::ostringstream s;
     s << "solver sor: relaxation factor " << report.omega << " must be in (0, 2)";

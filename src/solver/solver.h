@@ -39,8 +39,8 @@ struct SolverOptions {
   int max_iterations = 100000;  // per channel: sweeps (gauss-seidel, sor) or matrix-vector
                                 // products (cg, gmres) before giving up
   SolverMethod method = SolverMethod::Auto;
-  double omega = 0.0;           // sor relaxation factor in (0, 2); 0 = Young's estimate (sor.h)
-  Eigen::VectorXd areas = {};   // N patch areas, m²; empty = unknown (then cg is unavailable)
+  double omega = 0.0;             // sor relaxation factor in (0, 2); 0 = Young's estimate (sor.h)
+  Eigen::VectorXd areas = {};     // N patch areas, m²; empty = unknown (then cg is unavailable)
   int direct_max_patches = 8192;  // direct refuses larger N (it copies and factors N × N)
 };
 
@@ -51,10 +51,10 @@ struct SolverReport {
   int channels_solved = 0;  // 1 when every material is grey (channels 1, 2 copied), else 3
   bool converged = false;
   SolverMethod method = SolverMethod::GaussSeidel;  // what produced B (never Auto)
-  double seconds = 0.0;     // wall time of the solve (all channels)
-  double omega = 0.0;       // sor: the relaxation factor used (largest over channels); else 0
+  double seconds = 0.0;                             // wall time of the solve (all channels)
+  double omega = 0.0;                               // sor: the relaxation factor used (largest over channels); else 0
   double reciprocity_error = -1.0;  // cg: ‖S − Sᵀ‖_F / ‖S‖_F, S = diag(A)F; −1 = not measured
-  std::string detail;       // one line: how the method went (restarts, fallback), may be empty
+  std::string detail;               // one line: how the method went (restarts, fallback), may be empty
 };
 
 // The method `auto` runs, from the largest reflectance over all channels and the patch count:
@@ -72,8 +72,8 @@ SolverMethod choose_method(double max_reflectance, int patches, bool areas_known
 // never a wrong channel (report.channels_solved says which was done).
 // Throws photometria::Error(BadInput) if some ρ is outside [0, 1), some E < 0, cg is asked for
 // without options.areas (or areas of the wrong size / not > 0), or direct for N > direct_max_patches.
-SolverReport solve_radiosity(const FormFactors& F, const ChannelMatrix& emission,
-                             const ChannelMatrix& reflectance, const ChannelMatrix& direct_irradiance,
-                             bool grey, const SolverOptions& options, ChannelMatrix& radiosity);
+SolverReport solve_radiosity(const FormFactors& F, const ChannelMatrix& emission, const ChannelMatrix& reflectance,
+                             const ChannelMatrix& direct_irradiance, bool grey, const SolverOptions& options,
+                             ChannelMatrix& radiosity);
 
 }  // namespace photometria

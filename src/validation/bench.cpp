@@ -216,7 +216,8 @@ BenchRow run_case(const Case& c, const BenchOptions& opt) {
   row.pairs_per_second = row.form_factor_seconds > 0 ? double(row.pairs_evaluated) / row.form_factor_seconds : kNaN;
   row.evaluations_per_second =
       row.form_factor_seconds > 0 ? double(row.kernel_evaluations) / row.form_factor_seconds : kNaN;
-  row.rays_per_second = row.rays_cast > 0 && row.form_factor_seconds > 0 ? double(row.rays_cast) / row.form_factor_seconds : 0.0;
+  row.rays_per_second =
+      row.rays_cast > 0 && row.form_factor_seconds > 0 ? double(row.rays_cast) / row.form_factor_seconds : 0.0;
   return row;
 }
 
@@ -275,7 +276,8 @@ std::vector<BenchBox> bench_room_furniture() {
       int l = 0;
       for (double lx : {x0, x1 - chair_leg})
         for (double ly : {y0, y1 - chair_leg})
-          boxes.push_back({name + " leg " + std::to_string(++l), {lx, ly, 0.0},
+          boxes.push_back({name + " leg " + std::to_string(++l),
+                           {lx, ly, 0.0},
                            {lx + chair_leg, ly + chair_leg, seat_top - seat_thick}});
       const double by0 = sy > 0 ? y1 - chair_leg : y0;  // the edge away from the table
       boxes.push_back({name + " back", {x0, by0, seat_top}, {x1, by0 + chair_leg, seat_top + back}});
@@ -286,8 +288,7 @@ std::vector<BenchBox> bench_room_furniture() {
 Scene bench_room_scene() {
   Scene s;
   s.source = "bench room";
-  s.materials = {Material{"wall", Rgb::Constant(0.7), Rgb::Zero()},
-                 Material{"floor", Rgb::Constant(0.5), Rgb::Zero()},
+  s.materials = {Material{"wall", Rgb::Constant(0.7), Rgb::Zero()}, Material{"floor", Rgb::Constant(0.5), Rgb::Zero()},
                  Material{"light", Rgb::Constant(0.8), Rgb::Constant(10.0)},
                  Material{"table", Rgb::Constant(0.5), Rgb::Zero()},
                  Material{"chair", Rgb::Constant(0.4), Rgb::Zero()}};
@@ -339,12 +340,34 @@ std::vector<BenchRow> run_bench(const BenchOptions& opt) {
 }
 
 std::vector<std::string> bench_columns() {
-  return {"scene",           "setting",          "task",          "visibility",     "patches",
-          "pairs_evaluated", "pairs_per_s",      "kernel_evaluations", "evaluations_per_s",
-          "pairs_tested",    "pairs_culled",     "rays_cast",     "rays_per_s",     "gather_rays_cast",
-          "form_factor_s",   "solve_s",          "vertex_gather_s", "total_s",      "peak_memory_bytes",
-          "peak_memory_per_case", "estimated_bytes", "matrix_storage", "matrix_bytes", "max_row_sum_error",
-          "max_rel_error",   "max_abs_error",    "threads",         "skipped"};
+  return {"scene",
+          "setting",
+          "task",
+          "visibility",
+          "patches",
+          "pairs_evaluated",
+          "pairs_per_s",
+          "kernel_evaluations",
+          "evaluations_per_s",
+          "pairs_tested",
+          "pairs_culled",
+          "rays_cast",
+          "rays_per_s",
+          "gather_rays_cast",
+          "form_factor_s",
+          "solve_s",
+          "vertex_gather_s",
+          "total_s",
+          "peak_memory_bytes",
+          "peak_memory_per_case",
+          "estimated_bytes",
+          "matrix_storage",
+          "matrix_bytes",
+          "max_row_sum_error",
+          "max_rel_error",
+          "max_abs_error",
+          "threads",
+          "skipped"};
 }
 
 std::string bench_csv_line(const BenchRow& r) {
@@ -356,8 +379,7 @@ std::string bench_csv_line(const BenchRow& r) {
     << num(r.solve_seconds) << ',' << num(r.gather_seconds) << ',' << num(r.total_seconds) << ','
     << num(r.peak_memory_bytes) << ',' << (r.peak_memory_per_case ? 1 : 0) << ',' << num(r.estimated_bytes) << ','
     << quoted(r.matrix_storage) << ',' << num(r.matrix_bytes) << ',' << num(r.max_row_sum_error) << ','
-    << num(r.max_rel_error) << ',' << num(r.max_abs_error) << ','
-    << r.threads << ',' << quoted(r.skipped);
+    << num(r.max_rel_error) << ',' << num(r.max_abs_error) << ',' << r.threads << ',' << quoted(r.skipped);
   return s.str();
 }
 
@@ -407,6 +429,6 @@ void write_bench_csv(AtomicOutput& out, const std::vector<BenchRow>& rows) {
     f << '\n';
     for (const BenchRow& r : rows) f << bench_csv_line(r) << '\n';
   }
-  }
+}
 
 }  // namespace photometria::validation

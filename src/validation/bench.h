@@ -68,14 +68,14 @@ struct BenchRow {
   std::string task;        // "solve" or "viewfactors"
   std::string visibility;  // mode used: "none", "exact" or "rays"
   int patches = 0;
-  long long pairs_evaluated = 0;  // form-factor fill: pairs whose kernel was evaluated
-  double pairs_per_second = 0.0;  // pairs_evaluated / form_factor_seconds
-  long long kernel_evaluations = 0;        // point-to-polygon evaluations of the fill (FillStats)
-  double evaluations_per_second = 0.0;     // kernel_evaluations / form_factor_seconds
+  long long pairs_evaluated = 0;                 // form-factor fill: pairs whose kernel was evaluated
+  double pairs_per_second = 0.0;                 // pairs_evaluated / form_factor_seconds
+  long long kernel_evaluations = 0;              // point-to-polygon evaluations of the fill (FillStats)
+  double evaluations_per_second = 0.0;           // kernel_evaluations / form_factor_seconds
   long long pairs_tested = 0, pairs_culled = 0;  // shaft tests of the fill, and those found empty
-  long long rays_cast = 0;        // in the fill (0 unless visibility is "rays")
-  double rays_per_second = 0.0;   // rays_cast / form_factor_seconds (0 when no ray was cast)
-  long long gather_rays_cast = 0; // in the vertex gather (solve rows)
+  long long rays_cast = 0;                       // in the fill (0 unless visibility is "rays")
+  double rays_per_second = 0.0;                  // rays_cast / form_factor_seconds (0 when no ray was cast)
+  long long gather_rays_cast = 0;                // in the vertex gather (solve rows)
   // Wall seconds. "viewfactors" rows have no solve and no gather (NaN there); total is the
   // whole call (solve_scene or compute_view_factors, patching and visibility set-up included).
   double form_factor_seconds = 0.0, solve_seconds = 0.0, gather_seconds = 0.0, total_seconds = 0.0;
@@ -105,7 +105,7 @@ struct BenchOptions {
                                   // returned otherwise); labels are "<scene> <setting> <task>",
                                   // e.g. "cube n=32 solve", "room edge=0.112 m solve"
   std::function<void(const std::string& label)> on_start;  // before each case ("cube n=8 solve")
-  std::function<void(const BenchRow&)> on_row;              // after each case (also skipped ones)
+  std::function<void(const BenchRow&)> on_row;             // after each case (also skipped ones)
   // Optional: a case's stages ("<label>: form factors", ...) and their fraction done, as
   // SolveOptions::progress.
   std::function<void(const std::string& stage, double fraction)> progress;

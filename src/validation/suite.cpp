@@ -18,11 +18,11 @@
 #include "kernels/distant.h"
 #include "kernels/lambert.h"
 #include "kernels/sphere.h"
-#include "visibility/visibility.h"
 #include "patching/patching.h"
 #include "solver/gauss_seidel.h"
 #include "util/error.h"
 #include "validation/scenes.h"
+#include "visibility/visibility.h"
 
 namespace photometria::validation {
 namespace {
@@ -127,7 +127,8 @@ class Suite {
       const auto& g = c.at("geometry");
       if (c.at("kind") == "sphere_light") {
         const Receiver r{vec(g["receiver"]["point"]), vec(g["receiver"]["normal"]).normalized()};
-        err.add(sphere_form_factor(r, vec(g["sphere"]["center"]), g["sphere"]["radius"].get<double>()), number(c["value"]));
+        err.add(sphere_form_factor(r, vec(g["sphere"]["center"]), g["sphere"]["radius"].get<double>()),
+                number(c["value"]));
       } else if (c.at("kind") == "distant_light") {
         const Receiver r{vec(g["receiver"]["point"]), vec(g["receiver"]["normal"]).normalized()};
         const double angle_deg = 2.0 * g["cone"]["half_angle_rad"].get<double>() * 180.0 / M_PI;
@@ -144,7 +145,7 @@ class Suite {
   // 0.8 × 0.8 square of the source, so F = F(source) − F(shadow), both by Lambert (superposition).
   // Ray mode at a ladder of ray counts (RMS over 16 seeds), and the exact mode.
   void occluded_point() {
-    const Polygon source = {{-0.5, -0.5, 1}, {-0.5, 0.5, 1}, {0.5, 0.5, 1}, {0.5, -0.5, 1}};      // faces down
+    const Polygon source = {{-0.5, -0.5, 1}, {-0.5, 0.5, 1}, {0.5, 0.5, 1}, {0.5, -0.5, 1}};  // faces down
     const Polygon shadow = {{-0.4, -0.4, 1}, {-0.4, 0.4, 1}, {0.4, 0.4, 1}, {0.4, -0.4, 1}};
     const Receiver recv{Vec3(0, 0, 0), Vec3::UnitZ()};
     const double unoccluded = lambert_form_factor(recv, source);
@@ -157,18 +158,24 @@ class Suite {
       std::vector<int> occ;
       vis.culler().occluders(&recv.point, 1, source.data(), 4, occ);
       const std::vector<int> ladder = method == VisibilityMethod::Exact ? std::vector<int>{0}
-                                      : opt_.quick                     ? std::vector<int>{16, 256}
-                                                                       : std::vector<int>{16, 64, 256, 1024, 4096};
+                                      : opt_.quick                      ? std::vector<int>{16, 256}
+                                                                        : std::vector<int>{16, 64, 256, 1024, 4096};
       for (int rays : ladder) {
         ErrorStats err;
         const auto t0 = Clock::now();
         long long cast = 0;
         const int seeds = method == VisibilityMethod::Exact ? 1 : 16;
         for (int seed = 0; seed < seeds; ++seed)
-          err.add(vis.point_to_patch(recv, source.data(), 4, n_src, unoccluded, occ, rays, pair_stream(seed, 7, 11), cast),
-                  want);
+          err.add(
+              vis.point_to_patch(recv, source.data(), 4, n_src, unoccluded, occ, rays, pair_stream(seed, 7, 11), cast),
+              want);
         ValidationRow row{"occluded point (blocker, superposition)",
-                          method == VisibilityMethod::Exact ? "exact" : "rays=" + std::to_string(rays), 0, 1, 0, 0, 0,
+                          method == VisibilityMethod::Exact ? "exact" : "rays=" + std::to_string(rays),
+                          0,
+                          1,
+                          0,
+                          0,
+                          0,
                           since(t0) / seeds};
         err.into(row);
         emit(row);
@@ -234,7 +241,8 @@ class Suite {
         const Scene s = two_polygon_scene(p1, p2);
         double longest = 0;
         for (const Polygon* p : {&p1, &p2})
-          for (size_t k = 0; k < p->size(); ++k) longest = std::max(longest, ((*p)[(k + 1) % p->size()] - (*p)[k]).norm());
+          for (size_t k = 0; k < p->size(); ++k)
+            longest = std::max(longest, ((*p)[(k + 1) % p->size()] - (*p)[k]).norm());
         const PatchMesh mesh = subdivide(s, {longest / n * (1 + 1e-9), 0.0});
         patches += mesh.size();
         FillOptions fo;
@@ -316,8 +324,7 @@ class Suite {
         err.add(flux / area, want);
         std::ostringstream name;
         name << "n=" << n << " q=" << q;
-        ValidationRow row{"occluded patch-to-patch (exact visibility)", name.str(), mesh.size(), q, 0, 0, 0,
-                          since(t0)};
+        ValidationRow row{"occluded patch-to-patch (exact visibility)", name.str(), mesh.size(), q, 0, 0, 0, since(t0)};
         err.into(row);
         emit(row);
       }
@@ -326,7 +333,8 @@ class Suite {
 
   // The same cases, one patch each, with the per-pair rule at a ladder of tolerances.
   void patch_patch_adaptive() {
-    for (double tol : opt_.quick ? std::vector<double>{1e-3, 1e-6} : std::vector<double>{1e-2, 1e-4, 1e-6, 1e-8, 1e-10}) {
+    for (double tol :
+         opt_.quick ? std::vector<double>{1e-3, 1e-6} : std::vector<double>{1e-2, 1e-4, 1e-6, 1e-8, 1e-10}) {
       ErrorStats err;
       const auto t0 = Clock::now();
       for (const auto& c : refs_.at("cases")) {
@@ -413,8 +421,9 @@ class Suite {
         for (int i = 0; i < N; ++i) so.areas[i] = mesh.patches[i].area;
         ChannelMatrix B;
         const auto t0 = Clock::now();
-        const SolverReport rep = solve_radiosity(F, ChannelMatrix::Constant(N, 3, 1.0), ChannelMatrix::Constant(N, 3, rho),
-                                                 ChannelMatrix::Zero(N, 3), true, so, B);
+        const SolverReport rep =
+            solve_radiosity(F, ChannelMatrix::Constant(N, 3, 1.0), ChannelMatrix::Constant(N, 3, rho),
+                            ChannelMatrix::Zero(N, 3), true, so, B);
         ErrorStats err;
         for (int i = 0; i < N; ++i) err.add(B(i, 0), 1.0 / (1.0 - rho));
         std::ostringstream setting;
@@ -441,7 +450,8 @@ class Suite {
       ChannelMatrix E = ChannelMatrix::Zero(N, 3), B;
       for (int i = 0; i < N; ++i)
         if (s.faces[mesh.patches[i].face].material == 1) E.row(i).setOnes();
-      solve_radiosity(F, E, ChannelMatrix::Constant(N, 3, 0.5), ChannelMatrix::Zero(N, 3), true, gauss_seidel_to(1e-12, 100000), B);
+      solve_radiosity(F, E, ChannelMatrix::Constant(N, 3, 0.5), ChannelMatrix::Zero(N, 3), true,
+                      gauss_seidel_to(1e-12, 100000), B);
       ErrorStats err;
       for (int i = 0; i < N; ++i) err.add(B(i, 0), s.faces[mesh.patches[i].face].material == 1 ? cap : rest);
       ValidationRow row{"sphere enclosure, emitting cap", std::to_string(rings) + " rings", N, 1, 0, 0, 0, since(t0)};
@@ -532,8 +542,8 @@ void write_error_vs_time_plot(AtomicOutput& png, const std::string& title, const
                   << "set key outside right\nset grid\n"
                   << "plot ";
   for (size_t k = 0; k < scenes.size(); ++k)
-    script.stream() << (k ? ", " : "") << "'" << data.temp_path() << "' index " << k
-                    << " with linespoints lw 2 title '" << scenes[k] << "'";
+    script.stream() << (k ? ", " : "") << "'" << data.temp_path() << "' index " << k << " with linespoints lw 2 title '"
+                    << scenes[k] << "'";
   script.stream() << "\nunset output\n";  // closes the PNG: cairo writes its last bytes here
   script.finish();
   // gnuplot's messages are read back (never passed to our stdout) so that a failure is one line.
@@ -547,7 +557,8 @@ void write_error_vs_time_plot(AtomicOutput& png, const std::string& title, const
   if (status != 0)
     throw_io("cannot write '" + png_path + "': gnuplot failed" +
              (WIFEXITED(status) && WEXITSTATUS(status) == 127 ? std::string(" (install gnuplot-nox)")
-                                                              : first_message.empty() ? "" : ": " + first_message));
+              : first_message.empty()                         ? ""
+                                                              : ": " + first_message));
   // gnuplot does not report a short write (it exits 0 on a full disk): a PNG is complete only
   // when it ends with its IEND chunk (PNG specification, ISO/IEC 15948, sec. 11.2.5).
   if (!png_is_complete(png.temp_path()))

@@ -17,19 +17,19 @@
 namespace photometria::validation {
 
 struct ValidationRow {
-  std::string scene;       // family name: one line in the error-against-time plot
-  std::string setting;     // human description of the accuracy setting
-  int patches = 0;         // patches in the discretised scene (0 for point queries)
-  int quadrature = 1;      // receiver rule order
-  int cases = 0;           // reference values compared
+  std::string scene;    // family name: one line in the error-against-time plot
+  std::string setting;  // human description of the accuracy setting
+  int patches = 0;      // patches in the discretised scene (0 for point queries)
+  int quadrature = 1;   // receiver rule order
+  int cases = 0;        // reference values compared
   double max_rel_error = 0.0;
   double rms_rel_error = 0.0;
-  double seconds = 0.0;    // wall time of the computation being validated
+  double seconds = 0.0;  // wall time of the computation being validated
 };
 
 struct ValidationOptions {
-  bool quick = false;                                  // a subset that runs in seconds (CI)
-  std::function<void(const ValidationRow&)> on_row;    // called as each row completes
+  bool quick = false;                                // a subset that runs in seconds (CI)
+  std::function<void(const ValidationRow&)> on_row;  // called as each row completes
 };
 
 // Runs the suite against `refs` (the parsed reference file). Throws Error(BadInput) if a

@@ -20,7 +20,8 @@ namespace {
 std::vector<double> view3d_emissivities_of(const std::string& path, const Scene& scene, const PatchMesh& mesh,
                                            const Aggregation& agg) {
   std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   if (ext != ".vs3") return {};
   const std::vector<double> by_surface = view3d_emissivities(path);
   std::vector<double> out(static_cast<size_t>(agg.size()), 1.0);
@@ -42,8 +43,9 @@ ViewFactorJobResult run_view_factor_job(const ViewFactorJob& job) {
   ViewFactorOptions& opt = res.job.fill;
   opt.level = job.level;
   opt.enforcement = job.enforcement != Enforcement::None;
-  res.job.points_output =
-      job.points.empty() ? std::string() : job.points_output.empty() ? job.output + ".points.csv" : job.points_output;
+  res.job.points_output = job.points.empty()          ? std::string()
+                          : job.points_output.empty() ? job.output + ".points.csv"
+                                                      : job.points_output;
   const std::string& points_path = res.job.points_output;
 
   // Every output is opened (its temporary file created) before the long work, so that an

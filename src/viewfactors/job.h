@@ -27,17 +27,17 @@ namespace photometria {
 
 // What to compute and where to write it: the resolved options of `photometria viewfactors`.
 struct ViewFactorJob {
-  std::string scene;                           // input: mesh, View3D .vs3 or scene .json file
-  bool flip_normals = false;                   // reverse every face on load (inside-out exports)
-  std::string output;                          // the matrix file (-o); required
-  AggregateLevel level = AggregateLevel::Group;  // rows/columns: groups, input faces or patches
+  std::string scene;                                // input: mesh, View3D .vs3 or scene .json file
+  bool flip_normals = false;                        // reverse every face on load (inside-out exports)
+  std::string output;                               // the matrix file (-o); required
+  AggregateLevel level = AggregateLevel::Group;     // rows/columns: groups, input faces or patches
   ViewFactorFormat format = ViewFactorFormat::Csv;  // the file's layout (io/viewfactor_output.h);
-                                               // View3d from a .vs3 input copies its emissivities
-  double threshold = 0.0;                      // Sparse only: factors below it (in [0, 1]) are not written
-  Enforcement enforcement = Enforcement::None; // applied to the aggregated matrix before writing;
-                                               // Closure and Both also set View3D's `encl` flag
-  std::string points;                          // points file (.json or .csv, load_points); empty: none
-  std::string points_output;                   // where the point factors go; empty: output + ".points.csv"
+                                                    // View3d from a .vs3 input copies its emissivities
+  double threshold = 0.0;                           // Sparse only: factors below it (in [0, 1]) are not written
+  Enforcement enforcement = Enforcement::None;      // applied to the aggregated matrix before writing;
+                                                    // Closure and Both also set View3D's `encl` flag
+  std::string points;                               // points file (.json or .csv, load_points); empty: none
+  std::string points_output;                        // where the point factors go; empty: output + ".points.csv"
   // The fill: patching (default: one patch per input face), accuracy (default 1e-7), visibility,
   // rays, threads, storage, memory limit. Its `level`, `enforcement` and `points` are set by the
   // job from the fields above (they size the memory estimate), whatever they hold here.
@@ -54,27 +54,27 @@ struct ViewFactorJobResult {
   ViewFactorJob job;
 
   // Sizes.
-  int faces = 0;                        // faces of the loaded (cleaned) scene
-  int patches = 0;                      // N, patches of the fill
-  std::vector<std::string> names;       // the G output surfaces (Aggregation::names)
-  std::vector<double> areas;            // their areas, m²
+  int faces = 0;                   // faces of the loaded (cleaned) scene
+  int patches = 0;                 // N, patches of the fill
+  std::vector<std::string> names;  // the G output surfaces (Aggregation::names)
+  std::vector<double> areas;       // their areas, m²
   int surfaces() const { return static_cast<int>(names.size()); }
 
   // The written matrix (G × G, row I = from surface I, after enforcement) and its checks.
   ViewFactorMatrix F;
   MatrixChecks checks;
-  EnforcementReport enforcement_report; // all zero when enforcement is None
-  SparseWriteStats sparse;              // drop statistics; all zero unless format is Sparse
+  EnforcementReport enforcement_report;  // all zero when enforcement is None
+  SparseWriteStats sparse;               // drop statistics; all zero unless format is Sparse
 
   // The fill.
-  std::string visibility_mode;          // "none", "exact" or "rays"
-  std::string visibility_reason;        // why that mode was chosen
-  std::string matrix_storage;           // patch matrix storage used: "dense double", "sparse float", ...
-  double matrix_bytes = 0.0;            // bytes held by the patch matrix
-  ViewFactorMemory memory;              // the estimate checked before the fill, and the limit
-  FillStats fill;                       // pair counts, rays, kernel evaluations
+  std::string visibility_mode;    // "none", "exact" or "rays"
+  std::string visibility_reason;  // why that mode was chosen
+  std::string matrix_storage;     // patch matrix storage used: "dense double", "sparse float", ...
+  double matrix_bytes = 0.0;      // bytes held by the patch matrix
+  ViewFactorMemory memory;        // the estimate checked before the fill, and the limit
+  FillStats fill;                 // pair counts, rays, kernel evaluations
 
-  double seconds = 0.0;                 // wall time of the whole job, s
+  double seconds = 0.0;  // wall time of the whole job, s
 };
 
 // Throws photometria::Error: Io when an output cannot be written or an input cannot be opened;

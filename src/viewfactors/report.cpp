@@ -38,17 +38,26 @@ nlohmann::json viewfactor_summary_json(const ViewFactorJobResult& r) {
   j["checks"] = checks_json(r.checks, r.names);
   const ViewFactorMemory& m = r.memory;
   j["matrix"] = {{"storage", r.matrix_storage}, {"reason", m.storage_reason}, {"bytes", r.matrix_bytes}};
-  j["memory_estimate"] = {{"estimated_bytes", m.estimated_bytes},   {"matrix_bytes", m.matrix_bytes},
-                          {"output_bytes", m.output_bytes},         {"per_patch_bytes", m.patches.per_patch_bytes},
-                          {"dense_bytes", m.patches.dense_bytes},   {"sparse_bytes", m.patches.sparse_bytes},
-                          {"nonzero_pairs", m.patches.nonzero_pairs}, {"limit_bytes", m.limit_bytes},
+  j["memory_estimate"] = {{"estimated_bytes", m.estimated_bytes},
+                          {"matrix_bytes", m.matrix_bytes},
+                          {"output_bytes", m.output_bytes},
+                          {"per_patch_bytes", m.patches.per_patch_bytes},
+                          {"dense_bytes", m.patches.dense_bytes},
+                          {"sparse_bytes", m.patches.sparse_bytes},
+                          {"nonzero_pairs", m.patches.nonzero_pairs},
+                          {"limit_bytes", m.limit_bytes},
                           {"limit_source", m.limit_source}};
-  j["pairs"] = {{"evaluated", r.fill.pairs_evaluated},     {"backfacing", r.fill.pairs_backfacing},
-                {"per_pair_gauss", r.fill.pairs_gauss},     {"per_pair_adaptive", r.fill.pairs_adaptive},
+  j["pairs"] = {{"evaluated", r.fill.pairs_evaluated},
+                {"backfacing", r.fill.pairs_backfacing},
+                {"per_pair_gauss", r.fill.pairs_gauss},
+                {"per_pair_adaptive", r.fill.pairs_adaptive},
                 {"exact_rectangles", r.fill.pairs_exact_rectangles},
-                {"fixed_rule", r.fill.pairs_fixed_rule},     {"fixed_rule_order", job.fill.quadrature},
-                {"visibility_tested", r.fill.pairs_tested}, {"visibility_culled", r.fill.pairs_culled},
-                {"occluded", r.fill.pairs_occluded},         {"rays_cast", r.fill.rays_cast},
+                {"fixed_rule", r.fill.pairs_fixed_rule},
+                {"fixed_rule_order", job.fill.quadrature},
+                {"visibility_tested", r.fill.pairs_tested},
+                {"visibility_culled", r.fill.pairs_culled},
+                {"occluded", r.fill.pairs_occluded},
+                {"rays_cast", r.fill.rays_cast},
                 {"kernel_evaluations", r.fill.kernel_evaluations}};
   j["enforce"] = enforcement_name(job.enforcement);
   const EnforcementReport& rep = r.enforcement_report;
@@ -59,9 +68,12 @@ nlohmann::json viewfactor_summary_json(const ViewFactorJobResult& r) {
                         {"max_change", rep.max_change}};
   const SparseWriteStats& ws = r.sparse;
   if (job.format == ViewFactorFormat::Sparse)
-    j["sparse"] = {{"threshold", job.threshold},           {"written", ws.written},
-                   {"dropped", ws.dropped},               {"dropped_row_sum_max", ws.max_dropped_row_sum},
-                   {"dropped_worst_row", ws.worst_row},   {"dropped_total", ws.total_dropped}};
+    j["sparse"] = {{"threshold", job.threshold},
+                   {"written", ws.written},
+                   {"dropped", ws.dropped},
+                   {"dropped_row_sum_max", ws.max_dropped_row_sum},
+                   {"dropped_worst_row", ws.worst_row},
+                   {"dropped_total", ws.total_dropped}};
   if (!job.points_output.empty()) j["points"] = {{"count", job.fill.points}, {"output", job.points_output}};
   j["seconds"] = r.seconds;
   j["peak_memory_bytes"] = peak_memory_bytes();
@@ -99,7 +111,8 @@ std::string viewfactor_summary_text(const ViewFactorJobResult& r) {
   if (job.format == ViewFactorFormat::Sparse)
     o << "  sparse: " << ws.written << " entries written, " << ws.dropped << " below " << job.threshold
       << " dropped; largest dropped row sum " << ws.max_dropped_row_sum << " (row " << ws.worst_row << ")\n";
-  if (!job.points_output.empty()) o << "  point factors: " << job.fill.points << " points -> " << job.points_output << "\n";
+  if (!job.points_output.empty())
+    o << "  point factors: " << job.fill.points << " points -> " << job.points_output << "\n";
   o << "  time " << r.seconds << " s, peak memory " << peak_memory_bytes() / 1048576.0 << " MiB\n";
   return o.str();
 }

@@ -26,8 +26,8 @@ namespace {
 // output surfaces, the storage chosen from it (pipeline/memory.h choose_storage, as the solve
 // does) and the refusal. Called before patching, from the counts (surfaces: a lower bound, 0
 // unless --by patch), and after, from the mesh.
-StorageChoice check_memory(const MemoryEstimate& estimate, double patches, double surfaces, const ViewFactorOptions& opt,
-                           ViewFactorMemory& m) {
+StorageChoice check_memory(const MemoryEstimate& estimate, double patches, double surfaces,
+                           const ViewFactorOptions& opt, ViewFactorMemory& m) {
   m.patches = estimate;
   m.surfaces = static_cast<int>(std::min(surfaces, double(std::numeric_limits<int>::max())));
   const double n = patches, g = surfaces;
@@ -42,9 +42,8 @@ StorageChoice check_memory(const MemoryEstimate& estimate, double patches, doubl
   m.limit_source = c.limit_source;
   if (c.fits) return c;
   throw_bad_input("view factors need an estimated " + format_bytes(m.estimated_bytes) + " for " +
-                  format_patch_count(n) + " patches (" + m.storage + " form factors, " +
-                  format_patch_count(g) + " output surfaces) but " + c.limit_description() +
-                  "; use a coarser mesh (--max-edge)" +
+                  format_patch_count(n) + " patches (" + m.storage + " form factors, " + format_patch_count(g) +
+                  " output surfaces) but " + c.limit_description() + "; use a coarser mesh (--max-edge)" +
                   (c.precision == MatrixPrecision::Double ? std::string(", --matrix-precision float") : "") +
                   (opt.level != AggregateLevel::Group ? std::string(", --by group") : "") + " or raise --max-memory");
 }
@@ -156,10 +155,13 @@ MatrixChecks check_matrix(const ViewFactorMatrix& F, const std::vector<double>& 
     total += s;
     c.min_row_sum = std::min(c.min_row_sum, s);
     c.max_row_sum = std::max(c.max_row_sum, s);
-    if (std::abs(s - 1.0) > worst) { worst = std::abs(s - 1.0); c.worst_row = i; }
+    if (std::abs(s - 1.0) > worst) {
+      worst = std::abs(s - 1.0);
+      c.worst_row = i;
+    }
     for (int j = i + 1; j < n; ++j)
-      c.reciprocity_error = std::max(c.reciprocity_error, std::abs(areas[i] * F(i, j) - areas[j] * F(j, i)) /
-                                                              std::min(areas[i], areas[j]));
+      c.reciprocity_error = std::max(c.reciprocity_error,
+                                     std::abs(areas[i] * F(i, j) - areas[j] * F(j, i)) / std::min(areas[i], areas[j]));
   }
   c.mean_row_sum = total / n;
   return c;
@@ -309,7 +311,8 @@ std::vector<SurfacePoint> load_points(const std::string& path) {
         v[k] = std::strtod(cells[k].c_str(), &end);
         while (end && (*end == ' ' || *end == '\t')) ++end;
         if (end == cells[k].c_str() || (end && *end) || !std::isfinite(v[k]))
-          throw_bad_input(where + ": column " + std::to_string(k + 1) + " value '" + cells[k] + "' is not a finite number");
+          throw_bad_input(where + ": column " + std::to_string(k + 1) + " value '" + cells[k] +
+                          "' is not a finite number");
       }
       SurfacePoint p;
       p.id = cells.size() > 6 ? cells[6] : std::to_string(points.size());

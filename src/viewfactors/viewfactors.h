@@ -13,8 +13,8 @@
 // composite surfaces). It keeps reciprocity (A_I F_IJ = A_J F_JI) and row sums exactly.
 #pragma once
 
-#include <functional>
 #include <Eigen/Core>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -36,13 +36,13 @@ std::string aggregate_level_name(AggregateLevel level);
 bool aggregate_level_from_name(const std::string& name, AggregateLevel& out);
 
 struct ViewFactorOptions {
-  PatchingOptions patching;           // default: no subdivision beyond the input faces
-  double accuracy = 1e-7;             // per-pair relative tolerance for pairs nothing can block
-  int quadrature = 6;                 // receiver rule order for pairs needing visibility
+  PatchingOptions patching;  // default: no subdivision beyond the input faces
+  double accuracy = 1e-7;    // per-pair relative tolerance for pairs nothing can block
+  int quadrature = 6;        // receiver rule order for pairs needing visibility
   VisibilityMode visibility = VisibilityMode::Auto;
-  int rays = 576;                     // rays per (receiver point, patch) in ray mode
+  int rays = 576;  // rays per (receiver point, patch) in ray mode
   uint64_t seed = 1;
-  int threads = 0;                    // OpenMP threads for the fill; 0 = all cores
+  int threads = 0;  // OpenMP threads for the fill; 0 = all cores
   // Optional: called with the stage ("form factors") and its fraction done, from one thread at
   // a time (util/progress.h shows it).
   std::function<void(const std::string& stage, double fraction)> progress;
@@ -68,22 +68,22 @@ struct ViewFactorOptions {
 //   matrix_bytes    = the N × N patch matrix in `storage` (storage.h matrix_bytes())
 //   output_bytes    = 8 G² (aggregated matrix) × (1 + 4 with enforcement) + 8 P G (points)
 struct ViewFactorMemory {
-  MemoryEstimate patches;             // pipeline/memory.h: facing pairs, per-patch bytes
-  int surfaces = 0;                   // G, rows of the output
-  std::string storage;                // "dense double", "sparse float", ...
-  std::string storage_reason;         // "requested (--matrix sparse)" or "auto: ..."
+  MemoryEstimate patches;      // pipeline/memory.h: facing pairs, per-patch bytes
+  int surfaces = 0;            // G, rows of the output
+  std::string storage;         // "dense double", "sparse float", ...
+  std::string storage_reason;  // "requested (--matrix sparse)" or "auto: ..."
   double matrix_bytes = 0.0, output_bytes = 0.0, estimated_bytes = 0.0;
-  double limit_bytes = 0.0;           // the limit checked against (0 = unknown: not checked)
-  std::string limit_source;           // "--max-memory" or "MemAvailable"
+  double limit_bytes = 0.0;  // the limit checked against (0 = unknown: not checked)
+  std::string limit_source;  // "--max-memory" or "MemAvailable"
 };
 
 // Patch-level result of the fill.
 struct PatchViewFactors {
   PatchMesh mesh;
-  FormFactors F;                      // N × N patch factors (row i = from patch i)
+  FormFactors F;  // N × N patch factors (row i = from patch i)
   FillStats fill;
   ViewFactorMemory memory;
-  std::string visibility_mode;        // "none", "exact" or "rays"
+  std::string visibility_mode;  // "none", "exact" or "rays"
   std::string visibility_reason;
   std::shared_ptr<const Visibility> visibility;  // null when visibility_mode is "none"
 };
@@ -107,8 +107,8 @@ ViewFactorMatrix aggregate(const FormFactors& F, const PatchMesh& mesh, const Ag
 // Checks of a view-factor matrix with surface areas `areas` (size n).
 struct MatrixChecks {
   double min_row_sum = 0.0, max_row_sum = 0.0, mean_row_sum = 0.0;
-  int worst_row = 0;                 // row whose sum is farthest from 1
-  double reciprocity_error = 0.0;    // max_{i<j} |A_i F_ij − A_j F_ji| / min(A_i, A_j)
+  int worst_row = 0;               // row whose sum is farthest from 1
+  double reciprocity_error = 0.0;  // max_{i<j} |A_i F_ij − A_j F_ji| / min(A_i, A_j)
   double min_entry = 0.0, max_entry = 0.0;
 };
 MatrixChecks check_matrix(const ViewFactorMatrix& F, const std::vector<double>& areas);
@@ -121,8 +121,8 @@ bool enforcement_from_name(const std::string& name, Enforcement& out);
 
 struct EnforcementReport {
   MatrixChecks before, after;
-  int iterations = 0;               // scaling sweeps (closure / both)
-  double max_change = 0.0;          // max |F_new − F_old| over entries
+  int iterations = 0;       // scaling sweeps (closure / both)
+  double max_change = 0.0;  // max |F_new − F_old| over entries
 };
 // Modifies F in place (see viewfactors.cpp for the method and its citations):
 //   reciprocity: A·F replaced by its symmetric part (the nearest symmetric matrix in the

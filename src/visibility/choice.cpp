@@ -46,8 +46,8 @@ VisibilityChoice choose_visibility(const Scene& scene, VisibilityMode requested)
 
 std::unique_ptr<Visibility> make_visibility(const Scene& scene, const VisibilityChoice& choice) {
   if (choice.mode == VisibilityMode::None) return nullptr;
-  return std::make_unique<Visibility>(scene, choice.mode == VisibilityMode::Exact ? VisibilityMethod::Exact
-                                                                                  : VisibilityMethod::Rays);
+  return std::make_unique<Visibility>(
+      scene, choice.mode == VisibilityMode::Exact ? VisibilityMethod::Exact : VisibilityMethod::Rays);
 }
 
 }  // namespace photometria

@@ -25,8 +25,8 @@ VisibilityMode parse_visibility_mode(const std::string& text);
 
 struct VisibilityChoice {
   VisibilityMode mode = VisibilityMode::None;  // resolved: None, Rays or Exact (never Auto)
-  std::string reason;  // "requested (--visibility rays)" or "auto: <why>", for the summary
-  std::string name() const;  // "none", "rays" or "exact"
+  std::string reason;                          // "requested (--visibility rays)" or "auto: <why>", for the summary
+  std::string name() const;                    // "none", "rays" or "exact"
 };
 
 // The mode `requested` resolves to for `scene` (Auto decided as above).

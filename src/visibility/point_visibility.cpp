@@ -35,7 +35,8 @@ double Visibility::point_to_patch(const Receiver& x, const Vec3* source, int n, 
     thread_local std::vector<int> casting;
     casting = narrow ? occluders : narrowed;
     culler_.drop_hidden_faces(x.point, casting);
-    return std::min(unoccluded, exact_visible_form_factor(x, source, n, culler_.faces(), casting, &culler_.normals(), &culler_));
+    return std::min(unoccluded,
+                    exact_visible_form_factor(x, source, n, culler_.faces(), casting, &culler_.normals(), &culler_));
   }
   // Start just inside the point's own surface when it sits on an edge or corner, so rays leave cleanly.
   const Vec3 start = x.approach.isZero() ? x.point : Vec3(x.point + 10 * rays_->surface_offset() * x.approach);
@@ -81,7 +82,7 @@ Span clip_to_planes(Span in, const Plane* planes, int count, double eps, Polygon
       in_count += s[k] >= -eps;
       out_count += s[k] <= eps;
     }
-    if (in_count == out.n) continue;  // all on or inside
+    if (in_count == out.n) continue;    // all on or inside
     if (out_count == out.n) return {};  // all on or outside
     clip_keep(out.p, out.n, s, tmp);
     work.swap(tmp);
@@ -155,7 +156,7 @@ struct PointVisibility::Impl {
   std::vector<Eigen::AlignedBox3d> arena_boxes;  // per piece, grown by the tile's margin
   PiecePool clip_visible, clip_hidden;           // scratch of clip()
   std::vector<int> occluders, casting;
-  ShadowVolumes volumes;  // seen from x, shared by its tiles
+  ShadowVolumes volumes;         // seen from x, shared by its tiles
   Polygon rel, part, work, tmp;  // scratch of visible()
   std::vector<double> values;
   // Cone culling (see the header): the faces that may shadow from x and their cones.
@@ -170,10 +171,10 @@ struct PointVisibility::Impl {
   struct Block {
     std::vector<Vec3> corners;  // its tiles' corners, or the 4 of a rectangle in their plane that contains them
     long long stamp = -1;
-    std::vector<int> near;      // the candidates (indices) whose cones may meet the block's
+    std::vector<int> near;  // the candidates (indices) whose cones may meet the block's
   };
   std::vector<Block> blocks;
-  std::vector<int> block_of;            // per tile
+  std::vector<int> block_of;  // per tile
   // Per tile, compact (read for every patch, where a TileClip would be a cache miss on large
   // meshes): the point its cone-culled occluder list belongs to, and whether that list is empty.
   std::vector<long long> listed;
@@ -209,7 +210,8 @@ struct PointVisibility::Impl {
     for (int t = 0; t < grouped.tile_count(); ++t) {
       if (grouped.tile_corner_count(t) != 4) continue;
       const int face = grouped.tile_face(t);
-      if (blocks.empty() || blocks.back().corners.size() >= 4 * kBlockTiles || block_face != face) blocks.emplace_back();
+      if (blocks.empty() || blocks.back().corners.size() >= 4 * kBlockTiles || block_face != face)
+        blocks.emplace_back();
       block_face = face;
       block_of[size_t(t)] = static_cast<int>(blocks.size()) - 1;
       for (int k = 0; k < 4; ++k) blocks.back().corners.push_back(grouped.tile_corners(t)[k]);
@@ -370,8 +372,8 @@ struct PointVisibility::Impl {
     }
     c.eps = 1e-12 * scale;
     c.normal = newell_vector(rect.data(), 4).normalized();  // before `rect` is clipped away
-    c.cut = !casting.empty() && subtract_shadows(scale, vis->culler().faces(), casting,
-                                                 &vis->culler().normals(), clip_visible, &clip_hidden, &vis->culler(), volumes);
+    c.cut = !casting.empty() && subtract_shadows(scale, vis->culler().faces(), casting, &vis->culler().normals(),
+                                                 clip_visible, &clip_hidden, &vis->culler(), volumes);
     if (c.cut) {
       // Boxes grown by what a flat tile allows out of its plane (GroupedShaftCuller), so a patch
       // a hair off the tile's plane still meets the pieces over it.

@@ -93,8 +93,8 @@ RayVisibility::RayVisibility(const Scene& scene) : impl_(std::make_unique<Impl>(
     for (int k = 0; k < 3; ++k) vb[3 * i + k] = static_cast<float>(scene.vertices[i][k]);
   size_t tris = 0;
   for (const Face& f : scene.faces) tris += f.vertices.size() - 2;
-  auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                            3 * sizeof(unsigned), tris));
+  auto* ib = static_cast<unsigned*>(
+      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), tris));
   size_t t = 0;
   for (const Face& f : scene.faces)
     for (size_t k = 1; k + 1 < f.vertices.size(); ++k, ++t) {
@@ -122,8 +122,12 @@ bool RayVisibility::blocked(const Vec3& a, const Vec3& b) const {
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRay ray;
-  ray.org_x = float(a.x()); ray.org_y = float(a.y()); ray.org_z = float(a.z());
-  ray.dir_x = float(d.x() / len); ray.dir_y = float(d.y() / len); ray.dir_z = float(d.z() / len);
+  ray.org_x = float(a.x());
+  ray.org_y = float(a.y());
+  ray.org_z = float(a.z());
+  ray.dir_x = float(d.x() / len);
+  ray.dir_y = float(d.y() / len);
+  ray.dir_z = float(d.z() / len);
   // Leave the end points' own surfaces alone: float storage of the occluders costs ~1e-7 relative.
   ray.tnear = float(offset_);
   ray.tfar = float(len - offset_);
@@ -154,8 +158,8 @@ double RayVisibility::patch_to_patch(const Vec3* r, int rn, const Vec3& r_normal
   return total > 0 ? seen / total : 1.0;
 }
 
-double RayVisibility::point_to_patch(const Vec3& p, const Vec3& normal, const Vec3* s, int sn,
-                                     const Vec3& s_normal, int rays, uint64_t stream, int* rays_used) const {
+double RayVisibility::point_to_patch(const Vec3& p, const Vec3& normal, const Vec3* s, int sn, const Vec3& s_normal,
+                                     int rays, uint64_t stream, int* rays_used) const {
   SplitMix64 rng{stream};
   std::vector<std::pair<double, double>> b;
   const Vec3 x = p + 10 * offset_ * normal;
@@ -172,8 +176,10 @@ double RayVisibility::point_to_patch(const Vec3& p, const Vec3& normal, const Ve
       if (w == 0.0) continue;
       total += w;
       ++used;
-      if (!blocked(x, y + 10 * offset_ * s_normal)) { seen += w; ++misses; }
-      else ++hits;
+      if (!blocked(x, y + 10 * offset_ * s_normal)) {
+        seen += w;
+        ++misses;
+      } else ++hits;
     }
     unanimous = hits == 0 || misses == 0;
     return total > 0 ? seen / total : 1.0;

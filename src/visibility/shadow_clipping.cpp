@@ -157,7 +157,10 @@ bool subtract_shadows(double scale, const std::vector<Polygon>& faces, const std
         if (!outside.empty()) next.push().swap(outside);
         cur.swap(inside);
         rest = &cur;
-        if (cur.empty()) { shadowed = false; break; }
+        if (cur.empty()) {
+          shadowed = false;
+          break;
+        }
       }
       if (shadowed) {
         cut = true;
@@ -178,9 +181,9 @@ bool subtract_shadows(double scale, const std::vector<Polygon>& faces, const std
 
 using namespace visibility_detail;
 
-double exact_visible_form_factor(const Receiver& receiver, const Vec3* source, int n,
-                                 const std::vector<Polygon>& faces, const std::vector<int>& which,
-                                 const std::vector<Vec3>* normals, const ShaftCuller* solids) {
+double exact_visible_form_factor(const Receiver& receiver, const Vec3* source, int n, const std::vector<Polygon>& faces,
+                                 const std::vector<int>& which, const std::vector<Vec3>* normals,
+                                 const ShaftCuller* solids) {
   const Vec3& x = receiver.point;
   // Work relative to x: every wedge plane then passes through the origin.
   // Per-thread scratch: this runs once per occluded pair, and allocation was a tenth of its cost.

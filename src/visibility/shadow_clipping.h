@@ -62,9 +62,9 @@ class ShadowVolumes {
  public:
   struct Volume {
     long long stamp = -1;
-    bool casts = false;     // false: no volume (a face seen edge-on, a solid x is not outside)
-    double reach = 0.0;     // largest distance from x to the occluder's corners
-    double edge_on = 0.0;   // a face: the distance of its plane from x (it blocks nothing when <= eps)
+    bool casts = false;         // false: no volume (a face seen edge-on, a solid x is not outside)
+    double reach = 0.0;         // largest distance from x to the occluder's corners
+    double edge_on = 0.0;       // a face: the distance of its plane from x (it blocks nothing when <= eps)
     std::vector<Plane> planes;  // m·y >= d inside the shadow, relative to x
   };
 

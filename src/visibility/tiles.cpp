@@ -52,7 +52,8 @@ GroupedShaftCuller::GroupedShaftCuller(const ShaftCuller& culler, const PatchMes
     Vec3 w = polygon_normal(culler.faces()[size_t(f)]);
     if (w.isZero()) w = Vec3::UnitZ();
     const Vec3 u = w.unitOrthogonal(), v = w.cross(u);
-    for (int j : patches) uv[size_t(j)] = Eigen::Vector2d(u.dot(mesh.patches[size_t(j)].centroid), v.dot(mesh.patches[size_t(j)].centroid));
+    for (int j : patches)
+      uv[size_t(j)] = Eigen::Vector2d(u.dot(mesh.patches[size_t(j)].centroid), v.dot(mesh.patches[size_t(j)].centroid));
     std::vector<std::pair<int, int>> ranges;
     split_tiles(patches, uv, 0, static_cast<int>(patches.size()), tile_patches, ranges);
     for (const auto& [first, count] : ranges) {
@@ -111,9 +112,9 @@ const std::vector<int>& GroupedShaftCuller::group(int g) {
   }
   const Tile& tile = tiles_[size_t(g - faces)];
   if (static_cast<int>(culler_->faces()[size_t(tile.face)].size()) + 4 > kMaxShaftPoints)
-    culler_->occluders(receiver_, receiver_count_, tile.corners, tile.corner_count, list);  // a face of many corners: no face level
-  else
-    culler_->occluders_among(receiver_, receiver_count_, tile.corners, tile.corner_count, group(tile.face), list);
+    culler_->occluders(receiver_, receiver_count_, tile.corners, tile.corner_count,
+                       list);  // a face of many corners: no face level
+  else culler_->occluders_among(receiver_, receiver_count_, tile.corners, tile.corner_count, group(tile.face), list);
   return list;
 }
 

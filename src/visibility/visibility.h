@@ -51,7 +51,7 @@ class ShaftCuller {
   int face_count() const { return static_cast<int>(faces_.size()); }
   const std::vector<Polygon>& faces() const { return faces_; }
   const std::vector<Vec3>& normals() const { return normals_; }  // unit plane normals (polygon_normal)
-  double tolerance() const { return tol_; }  // metres, 1e-9 × scene diagonal
+  double tolerance() const { return tol_; }                      // metres, 1e-9 × scene diagonal
 
   // Replaces `out` with the faces that may meet the open shaft of A and B: convex planar
   // polygons (3 or 4 corners) or, with a count of 1, a single point. A face is left out when its
@@ -97,13 +97,13 @@ class ShaftCuller {
   // the solids set, for the caller to reset.
   bool hidden_from(const Vec3& x, int f, std::vector<signed char>& outside_state, std::vector<int>& touched) const;
   std::vector<Polygon> faces_;
-  std::vector<std::vector<int>> solids_;       // faces of each convex solid
-  std::vector<int> solid_of_;                  // per face: its convex solid, or -1
-  std::vector<std::vector<int>> neighbours_;   // per face and edge: the face across it, or -1
-  std::vector<Vec3> normals_;                  // unit plane normals
+  std::vector<std::vector<int>> solids_;      // faces of each convex solid
+  std::vector<int> solid_of_;                 // per face: its convex solid, or -1
+  std::vector<std::vector<int>> neighbours_;  // per face and edge: the face across it, or -1
+  std::vector<Vec3> normals_;                 // unit plane normals
   std::vector<Eigen::AlignedBox3d> boxes_;
-  std::vector<int> order_;                     // face indices, leaf ranges point into it
-  std::vector<Node> nodes_;                    // nodes_[0] is the root
+  std::vector<int> order_;   // face indices, leaf ranges point into it
+  std::vector<Node> nodes_;  // nodes_[0] is the root
   double tol_ = 0.0;
 };
 
@@ -178,9 +178,9 @@ class GroupedShaftCuller {
 // `solids` (optional; the culler these faces and normals are from): the listed faces of a convex
 // solid x is clearly outside of cast one shadow volume, the solid's (the cone through its
 // silhouette, behind its front faces), rather than one each; the same set is hidden.
-double exact_visible_form_factor(const Receiver& receiver, const Vec3* source, int n,
-                                 const std::vector<Polygon>& faces, const std::vector<int>& which,
-                                 const std::vector<Vec3>* normals = nullptr, const ShaftCuller* solids = nullptr);
+double exact_visible_form_factor(const Receiver& receiver, const Vec3* source, int n, const std::vector<Polygon>& faces,
+                                 const std::vector<int>& which, const std::vector<Vec3>* normals = nullptr,
+                                 const ShaftCuller* solids = nullptr);
 
 // Ray-cast visibility with Embree 3 (see 2. above). Thread-safe after construction; results
 // depend only on (seed, pair), never on the thread count.
@@ -194,9 +194,8 @@ class RayVisibility {
   // Visible fraction between two patches (polygons of 3 or 4 corners with unit front normals):
   // `rays` segments between Latin-hypercube stratified points on each, seeded by `stream`,
   // weighted by the form-factor integrand. 1 if no segment carries light.
-  double patch_to_patch(const Vec3* receiver, int receiver_count, const Vec3& receiver_normal,
-                        const Vec3* source, int source_count, const Vec3& source_normal,
-                        int rays, uint64_t stream) const;
+  double patch_to_patch(const Vec3* receiver, int receiver_count, const Vec3& receiver_normal, const Vec3* source,
+                        int source_count, const Vec3& source_normal, int rays, uint64_t stream) const;
 
   // Visible fraction V(x, P) from a point (on a surface with normal `normal`) to a patch:
   // `rays` segments to jittered-stratified points on P (√rays × √rays strata when rays is a

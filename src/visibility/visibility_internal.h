@@ -29,7 +29,10 @@ inline bool boxes_meet(const Eigen::AlignedBox3d& a, const Eigen::AlignedBox3d& 
 inline double bounding_diagonal(const std::vector<Vec3>& v) {
   if (v.empty()) return 0.0;
   Vec3 lo = v[0], hi = v[0];
-  for (const Vec3& x : v) { lo = lo.cwiseMin(x); hi = hi.cwiseMax(x); }
+  for (const Vec3& x : v) {
+    lo = lo.cwiseMin(x);
+    hi = hi.cwiseMax(x);
+  }
   return (hi - lo).norm();
 }
 

@@ -21,7 +21,8 @@ inline const std::filesystem::path& scratch() {
 
 inline std::string write(const std::string& name, std::string_view bytes) {
   const std::string path = (scratch() / name).string();
-  std::ofstream(path, std::ios::binary | std::ios::trunc).write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  std::ofstream(path, std::ios::binary | std::ios::trunc)
+      .write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
   return path;
 }
 

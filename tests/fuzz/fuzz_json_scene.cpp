@@ -34,7 +34,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   try {
     const Scene scene = load_scene(path);
     (void)load_warnings(scene.stats);
-  } catch (const Error&) {
-  }
+  } catch (const Error&) {}
   return 0;
 }

@@ -24,7 +24,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     options.default_emission = Rgb::Constant(1.0);
     const Scene scene = load_scene(obj, options);
     (void)load_warnings(scene.stats);
-  } catch (const Error&) {
-  }
+  } catch (const Error&) {}
   return 0;
 }

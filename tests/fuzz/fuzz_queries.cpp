@@ -24,7 +24,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       if (q.kind == PointQuery::Kind::Distant && !(q.angle_deg >= 0 && q.angle_deg <= 360)) std::abort();
       (void)json_string(q.id);
     }
-  } catch (const Error&) {
-  }
+  } catch (const Error&) {}
   return 0;
 }

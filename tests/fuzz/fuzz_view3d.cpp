@@ -16,7 +16,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   try {
     const Scene scene = load_scene(path, LoadOptions{});
     (void)load_warnings(scene.stats);
-  } catch (const Error&) {
-  }
+  } catch (const Error&) {}
   return 0;
 }
