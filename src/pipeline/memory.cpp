@@ -13,6 +13,7 @@
 
 #include "formfactors/formfactors.h"
 #include "pipeline/solve.h"
+#include "util/error.h"
 
 namespace photometria {
 namespace {
@@ -165,6 +166,20 @@ StorageChoice choose_storage(MatrixLayout layout, MatrixPrecision precision, dou
   c.estimated_bytes = c.matrix_bytes + other_bytes;
   c.fits = c.limit_bytes <= 0 || c.estimated_bytes <= c.limit_bytes;
   return c;
+}
+
+StorageChoice check_storage(const MemoryEstimate& estimate, double patches, double extra_bytes, MatrixLayout layout,
+                            MatrixPrecision precision, double max_memory_bytes, const std::string& subject,
+                            const std::string& what_else, const std::string& more_ways) {
+  const StorageChoice c = choose_storage(layout, precision, patches, double(estimate.nonzero_pairs),
+                                         estimate.per_patch_bytes * patches + extra_bytes, max_memory_bytes);
+  if (c.fits) return c;
+  std::string ways = "raise --max-edge";
+  if (c.precision == MatrixPrecision::Double) ways += ", try --matrix-precision float";
+  if (!more_ways.empty()) ways += ", " + more_ways;
+  throw_bad_input(subject + " " + format_bytes(c.estimated_bytes) + " for " + format_patch_count(patches) +
+                  " patches (" + c.storage + " form factors" + what_else + ") but " + c.limit_description() + "; " +
+                  ways + " or raise --max-memory");
 }
 
 std::string StorageChoice::limit_description() const {

@@ -65,6 +65,18 @@ struct StorageChoice {
 StorageChoice choose_storage(MatrixLayout layout, MatrixPrecision precision, double n, double nonzeros,
                              double other_bytes, double max_memory_bytes);
 
+// The storage decision and the memory check of a run, the solve's and `viewfactors`' alike:
+// choose_storage() for `patches` patches (nonzero pairs and per-patch bytes from `estimate`)
+// plus `extra_bytes` of the run's own (viewfactors: its output matrices), refused with
+// Error(BadInput) when the estimate exceeds the limit, in one line:
+//   "<subject> <bytes> for <N> patches (<storage> form factors<what_else>) but <limit>;
+//    raise --max-edge[, try --matrix-precision float][, <more_ways>] or raise --max-memory"
+// (the float advice only when the matrix was double). Called before patching, from the
+// counts, and again after, from the mesh.
+StorageChoice check_storage(const MemoryEstimate& estimate, double patches, double extra_bytes, MatrixLayout layout,
+                            MatrixPrecision precision, double max_memory_bytes, const std::string& subject,
+                            const std::string& what_else = "", const std::string& more_ways = "");
+
 // MemAvailable from /proc/meminfo, bytes; 0 when it cannot be read.
 double available_memory_bytes();
 

@@ -172,24 +172,17 @@ EnergyBalance energy_balance(const Eigen::VectorXd& row_sums, const ChannelMatri
   return e;
 }
 
-// Picks the matrix storage from the memory estimate of `patches` patches (memory.h
-// choose_storage) and refuses a run that cannot fit. Called twice: before patching, from the
-// counts (so that a typo in --max-edge is refused before anything grows with the patch count),
-// and after, from the mesh.
+// The storage and the memory check (memory.h check_storage), recorded in the summary.
 StorageChoice check_memory(const MemoryEstimate& estimate, double patches, const SolveOptions& opt, SolveSummary& s) {
-  s.memory = estimate;
   const StorageChoice c =
-      choose_storage(opt.matrix_layout, opt.matrix_precision, patches, double(s.memory.nonzero_pairs),
-                     s.memory.per_patch_bytes * patches, opt.max_memory_bytes);
+      check_storage(estimate, patches, 0.0, opt.matrix_layout, opt.matrix_precision, opt.max_memory_bytes, "needs");
+  s.memory = estimate;
   s.matrix_storage = c.storage;
   s.matrix_storage_reason = c.reason;
   s.estimated_bytes = c.estimated_bytes;
   s.memory_limit_bytes = c.limit_bytes;
   s.memory_limit_source = c.limit_source;
-  if (c.fits) return c;
-  throw_bad_input("needs " + format_bytes(c.estimated_bytes) + " for " + format_patch_count(patches) + " patches (" +
-                  c.storage + " form factors) but " + c.limit_description() + "; raise --max-edge" +
-                  (c.precision == MatrixPrecision::Double ? " or try --matrix-precision float" : ""));
+  return c;
 }
 
 }  // namespace

@@ -23,29 +23,27 @@ namespace photometria {
 namespace {
 
 // The memory estimate of viewfactors.h (ViewFactorMemory) for `patches` patches and `surfaces`
-// output surfaces, the storage chosen from it (pipeline/memory.h choose_storage, as the solve
-// does) and the refusal. Called before patching, from the counts (surfaces: a lower bound, 0
-// unless --by patch), and after, from the mesh.
+// output surfaces (the output matrices' bytes on top of the solve's), checked as the solve's is
+// (pipeline/memory.h check_storage). Called before patching, from the counts (surfaces: a lower
+// bound, 0 unless --by patch), and after, from the mesh.
 StorageChoice check_memory(const MemoryEstimate& estimate, double patches, double surfaces,
                            const ViewFactorOptions& opt, ViewFactorMemory& m) {
+  const double g = surfaces;
+  const double output_bytes = 8.0 * g * g * (opt.enforcement ? 5.0 : 1.0) + 8.0 * double(std::max(opt.points, 0)) * g;
+  const StorageChoice c =
+      check_storage(estimate, patches, output_bytes, opt.matrix_layout, opt.matrix_precision, opt.max_memory_bytes,
+                    "view factors need an estimated", ", " + format_patch_count(g) + " output surfaces",
+                    opt.level != AggregateLevel::Group ? "use --by group" : "");
   m.patches = estimate;
   m.surfaces = static_cast<int>(std::min(surfaces, double(std::numeric_limits<int>::max())));
-  const double n = patches, g = surfaces;
-  m.output_bytes = 8.0 * g * g * (opt.enforcement ? 5.0 : 1.0) + 8.0 * double(std::max(opt.points, 0)) * g;
-  const StorageChoice c = choose_storage(opt.matrix_layout, opt.matrix_precision, n, double(m.patches.nonzero_pairs),
-                                         m.patches.per_patch_bytes * n + m.output_bytes, opt.max_memory_bytes);
+  m.output_bytes = output_bytes;
   m.storage = c.storage;
   m.storage_reason = c.reason;
   m.matrix_bytes = c.matrix_bytes;
   m.estimated_bytes = c.estimated_bytes;
   m.limit_bytes = c.limit_bytes;
   m.limit_source = c.limit_source;
-  if (c.fits) return c;
-  throw_bad_input("view factors need an estimated " + format_bytes(m.estimated_bytes) + " for " +
-                  format_patch_count(n) + " patches (" + m.storage + " form factors, " + format_patch_count(g) +
-                  " output surfaces) but " + c.limit_description() + "; use a coarser mesh (--max-edge)" +
-                  (c.precision == MatrixPrecision::Double ? std::string(", --matrix-precision float") : "") +
-                  (opt.level != AggregateLevel::Group ? std::string(", --by group") : "") + " or raise --max-memory");
+  return c;
 }
 
 }  // namespace
