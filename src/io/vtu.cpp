@@ -107,23 +107,25 @@ void write_vtu(AtomicOutput& out, const VtuGrid& grid) {
   for (const auto& a : grid.point_arrays) ug->GetPointData()->AddArray(to_vtk(a));
   for (const auto& a : grid.cell_arrays) ug->GetCellData()->AddArray(to_vtk(a));
 
+  // VTK writes into memory and we write its bytes: VTK 9.1's own out-of-disk-space path frees
+  // memory it does not own (vtkXMLUnstructuredDataWriter::DeletePositionArrays, caught by
+  // AddressSanitizer), so a full disk must never reach it. The stream's errors are ours to check
+  // (AtomicOutput::commit).
   vtkNew<vtkXMLUnstructuredGridWriter> writer;
-  writer->SetFileName(out.temp_path().c_str());
+  writer->WriteToOutputStringOn();
   writer->SetInputData(ug);
   writer->SetDataModeToBinary();
   writer->SetCompressorTypeToZLib();
   const VtkErrorCatcher errors(writer);
   const int written = writer->Write();
-  // VTK's writers keep the failing call's errno as their error code (vtkErrorCode.h: codes below
-  // UserError are system errors), and return 1 from Write() even then: both are checked.
   const unsigned long code = writer->GetErrorCode();
-  if (code == vtkErrorCode::OutOfDiskSpaceError)
-    throw_io("cannot write '" + path + "': no space left on the device (or over the file-size limit)");
-  if (code != vtkErrorCode::NoError)
-    throw_io("cannot write '" + path + "': " + vtkErrorCode::GetStringFromErrorCode(code));
-  if (written != 1 || errors.failed())
-    throw_io("cannot write '" + path +
-             "': VTK: " + (errors.first_error().empty() ? "the writer failed" : errors.first_error()));
+  if (written != 1 || code != vtkErrorCode::NoError || errors.failed())
+    throw_io("cannot write '" + path + "': VTK: " +
+             (errors.first_error().empty() ? std::string(vtkErrorCode::GetStringFromErrorCode(code))
+                                           : errors.first_error()));
+  const std::string bytes = writer->GetOutputString();
+  out.stream().write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  out.check_stream();
 }
 
 VtuGrid read_vtu(const std::string& path) {
