@@ -40,10 +40,7 @@ pm::ViewFactorJob job_of(const ViewFactorArgs& a) {
     pm::throw_bad_input("--enforce: unknown mode '" + a.enforce + "' (none, reciprocity, closure or both)");
   pm::ViewFactorOptions& opt = job.fill;
   opt.visibility = pm::parse_visibility_mode(a.visibility);
-  if (!(a.accuracy > 0.0 && a.accuracy < 1.0)) pm::throw_bad_input("--accuracy must lie in (0, 1)");
-  if (!(a.max_edge >= 0.0)) pm::throw_bad_input("--max-edge must be >= 0");
-  if (!(a.threshold >= 0.0)) pm::throw_bad_input("--threshold must be >= 0");
-  if (a.rays < 1) pm::throw_bad_input("--rays must be >= 1");
+  // The numeric options are range-checked when parsed (options.h).
   opt.accuracy = a.accuracy;
   opt.patching.max_edge = a.max_edge;
   opt.rays = a.rays;
