@@ -2,6 +2,12 @@
 """Writes the small scenes that ship with Photometria (python3 standard library only).
 
     python3 meshes/make_meshes.py [--cornell-src DIR]
+    python3 meshes/make_meshes.py --many-faces H OUT.vs3
+
+The second form writes room_with_table as a View3D input instead (nothing else): every quad of
+the room, the light and the table tessellated into quads of edge at most H metres, each quad its
+own surface (the "rooms made of many faces" benchmark: H = 0.2 gives 1,666 surfaces, H = 0.1
+6,316).
 
 Conventions of every generated file: metres, y up, every face wound counter-clockwise seen from
 its front (the side that emits and receives light), so its right-hand (Newell) normal points to
@@ -13,6 +19,7 @@ folder exists (default: ../../shared/scenes/cornell_box next to the repository).
 """
 
 import argparse
+import math
 import os
 import re
 
@@ -164,6 +171,43 @@ def room_with_table():
     return obj
 
 
+def tessellate(quad, h):
+    """A planar parallelogram cut into ceil(edge / h) x ceil(edge / h) quads of the same winding."""
+    a, b, _, d = quad
+    u, v = sub(b, a), sub(d, a)
+    nu = max(1, math.ceil(dot(u, u) ** 0.5 / h - 1e-9))
+    nv = max(1, math.ceil(dot(v, v) ** 0.5 / h - 1e-9))
+    at = lambda i, j: tuple(a[k] + u[k] * i / nu + v[k] * j / nv for k in range(3))
+    return [[at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)] for j in range(nv) for i in range(nu)]
+
+
+def write_many_faces_room(h, path):
+    """room_with_table tessellated into quads of edge <= h, one View3D surface each (F 3)."""
+    obj = room_with_table()
+    index, vertices, surfaces = {}, [], []
+    for group, _, faces in obj.blocks:
+        for face in faces:
+            quad = [obj.vertices[k - 1] for k in face]
+            for q in tessellate(quad, h):
+                ids = []
+                for p in q:
+                    p = tuple(round(x, 9) + 0.0 for x in p)
+                    if p not in index:
+                        index[p] = len(vertices) + 1
+                        vertices.append(p)
+                    ids.append(index[p])
+                surfaces.append((ids, group))
+    with open(path, "w") as f:
+        f.write(f"T room_with_table, quads of edge <= {h:g} m, each its own surface (meshes/make_meshes.py)\n")
+        f.write("C encl=0 list=0\nF 3\n")
+        for k, p in enumerate(vertices, 1):
+            f.write(f"V {k} {p[0]:.9g} {p[1]:.9g} {p[2]:.9g}\n")
+        for k, (ids, group) in enumerate(surfaces, 1):
+            f.write(f"S {k} {' '.join(map(str, ids))} 0 0 0 {group}{k}\n")
+        f.write("End of data\n")
+    print(f"{path}: {len(vertices)} vertices, {len(surfaces)} surfaces")
+
+
 def two_squares():
     obj = Obj("two_squares", "Two parallel unit squares at distance 1 facing each other: the bottom one\n"
                              "(y = 0, facing +y) emits E = 1 and reflects nothing, the top one (y = 1,\n"
@@ -195,7 +239,11 @@ def copy_cornell_box(src):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cornell-src", default=os.path.join(HERE, "..", "..", "shared", "scenes", "cornell_box"))
+    parser.add_argument("--many-faces", nargs=2, metavar=("H", "OUT"), help="write the many-faces room as .vs3")
     args = parser.parse_args()
+    if args.many_faces:
+        write_many_faces_room(float(args.many_faces[0]), args.many_faces[1])
+        return
     for obj in (furnace_cube(), room_with_table(), two_squares()):
         obj.write()
         print(f"{obj.name}: {len(obj.vertices)} vertices, {sum(len(b[2]) for b in obj.blocks)} faces")

@@ -118,8 +118,9 @@ TEST(ViewFactorJob, FaceLevelCsvResultAndSummaries) {
   EXPECT_EQ(r.job.fill.points, 0);
   EXPECT_EQ(r.sparse.written, 0);
   EXPECT_EQ(r.enforcement_report.iterations, 0);
-  // The checks are those of the returned matrix: an open box, rows sum to at most 1.
-  EXPECT_LE(r.checks.max_row_sum, 1.0 + 1e-9);
+  // The checks are those of the returned matrix: an open box, rows sum to at most 1, up to the
+  // error of the fixed 6 × 6 rule that occluded pairs take (4e-9 on the box faces).
+  EXPECT_LE(r.checks.max_row_sum, 1.0 + 1e-8);
   EXPECT_NEAR(r.checks.max_row_sum, r.F.rowwise().sum().maxCoeff(), 1e-15);
   EXPECT_GE(r.checks.min_entry, 0.0);
 

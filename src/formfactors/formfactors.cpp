@@ -162,6 +162,7 @@ class RowFill {
         source(j);
         ++k_.tested;
         grouped_->occluders(j, sj_, s_.mesh.patches[j].corner_count, occluders_);
+        if (!occluders_.empty()) narrow_to_exchanging_parts(j);
         shaft_known = true;
       }
       if (!s_.vis || occluders_.empty()) {
@@ -269,6 +270,35 @@ class RowFill {
     return f;
   }
 
+  // Only the part of P_i in front of P_j's plane and the part of P_j in front of P_i's plane
+  // exchange light (the cosine factor of the other side is <= 0 elsewhere), so only segments
+  // between those parts need to be unblocked. Their shaft lies inside the pair's, so its occluders
+  // are found among the pair's (ShaftCuller::occluders_among). This is what frees a pair that
+  // touches a convex solid it belongs to (a table leg's face and the floor quad the leg stands
+  // on): the solid's other faces lie behind the face's plane, outside the narrower shaft.
+  void narrow_to_exchanging_parts(int j) {
+    const Patch& pj = s_.mesh.patches[j];
+    clip_to_halfspace_at(ri_, pi_.corner_count, sj_[0], pj.normal, receiver_part_);
+    clip_to_halfspace_at(sj_, pj.corner_count, ri_[0], pi_.normal, source_part_);
+    if (receiver_part_.size() < 3 || source_part_.size() < 3) {
+      occluders_.clear();  // no exchange at all: nothing to block
+      return;
+    }
+    if (receiver_part_.size() + source_part_.size() > 24) return;  // (cannot happen for quads)
+    candidates_.swap(occluders_);
+    s_.vis->culler().occluders_among(receiver_part_.data(), int(receiver_part_.size()), source_part_.data(),
+                                     int(source_part_.size()), candidates_, occluders_);
+  }
+
+  // `out` = the part of polygon v[0..n) on the front closed side of the plane through `origin`
+  // with normal `normal`.
+  static void clip_to_halfspace_at(const Vec3* v, int n, const Vec3& origin, const Vec3& normal, Polygon& out) {
+    Polygon rel(v, v + n);
+    for (Vec3& p : rel) p -= origin;
+    clip_to_halfspace(rel.data(), n, normal, out);
+    for (Vec3& p : out) p += origin;
+  }
+
   // P_j's corners (sj_), fetched on first need per pair.
   Vec3* source(int j) {
     if (!have_sj_) s_.mesh.polygon(j, sj_);
@@ -312,7 +342,8 @@ class RowFill {
   // and the part of that which rays estimated (the only part that may need scaling).
   std::vector<double> point_sum_, ray_part_;
   std::vector<double> unoccluded_;  // per receiver point, of the current pair
-  std::vector<int> occluders_;
+  std::vector<int> occluders_, candidates_;
+  Polygon receiver_part_, source_part_;  // narrow_to_exchanging_parts
   // Shaft culling in a hierarchy (face, tile, patch; visibility.h); one per thread, reused across rows.
   GroupedShaftCuller* grouped_;
   PointVisibility* from_point_ = nullptr;
