@@ -3,7 +3,6 @@
 // A wall meshed into n × n quads is one occluder, so exact visibility costs what the surfaces
 // that matter cost, not what the face count does.
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstdint>
 #include <map>
@@ -19,36 +18,9 @@ namespace photometria::visibility_detail {
 
 namespace {
 
-using Edge = std::pair<int, int>;  // directed, between canonical vertex ids
+using Edge = std::pair<int, int>;  // directed, between scene vertex indices
 
 uint64_t key(int a, int b) { return (uint64_t(uint32_t(a)) << 32) | uint32_t(b); }
-
-// Per scene vertex, the smallest index of a vertex within tol of it (found through a grid of
-// cells of 2 tol: such a vertex lies in one of the 27 cells around). The identity for a welded
-// scene (load_scene welds within about the same distance).
-std::vector<int> canonical_vertices(const std::vector<Vec3>& v, double tol) {
-  std::vector<int> id(v.size());
-  std::iota(id.begin(), id.end(), 0);
-  if (!(tol > 0.0)) return id;
-  const double cell = 2.0 * tol;
-  std::map<std::array<long long, 3>, std::vector<int>> grid;
-  for (size_t i = 0; i < v.size(); ++i) {
-    std::array<long long, 3> c;
-    for (int a = 0; a < 3; ++a) c[size_t(a)] = static_cast<long long>(std::floor(v[i][a] / cell));
-    int best = static_cast<int>(i);
-    for (long long dx = -1; dx <= 1; ++dx)
-      for (long long dy = -1; dy <= 1; ++dy)
-        for (long long dz = -1; dz <= 1; ++dz) {
-          const auto it = grid.find({c[0] + dx, c[1] + dy, c[2] + dz});
-          if (it == grid.end()) continue;
-          for (int j : it->second)
-            if ((v[size_t(j)] - v[i]).norm() <= tol) best = std::min(best, id[size_t(j)]);
-        }
-    id[i] = best;
-    grid[c].push_back(static_cast<int>(i));
-  }
-  return id;
-}
 
 // The union of convex polygons of one plane (unit normal n, n·y = d) given by their directed
 // edges (each polygon counter-clockwise around n), when it is one convex polygon: interior edges
@@ -117,20 +89,16 @@ bool convex_union(const std::vector<Edge>& edges, double area, const Vec3& n, do
 
 MergedOccluders merge_coplanar_faces(const Scene& scene, double tol) {
   const int n = static_cast<int>(scene.faces.size());
-  const std::vector<int> id = canonical_vertices(scene.vertices, tol);
   std::vector<std::vector<int>> corners(static_cast<size_t>(n));
   std::vector<Vec3> normal(static_cast<size_t>(n));
   std::vector<double> offset(static_cast<size_t>(n)), area(static_cast<size_t>(n));
   std::vector<char> mergeable(static_cast<size_t>(n), 1);
   for (int f = 0; f < n; ++f) {
     const Polygon p = scene.face_polygon(f);
-    for (int v : scene.faces[size_t(f)].vertices) corners[size_t(f)].push_back(id[size_t(v)]);
+    corners[size_t(f)] = scene.faces[size_t(f)].vertices;
     normal[size_t(f)] = polygon_normal(p);
     offset[size_t(f)] = normal[size_t(f)].dot(p[0]);
     area[size_t(f)] = polygon_area(p);
-    const std::vector<int>& c = corners[size_t(f)];
-    for (size_t k = 0; k < c.size(); ++k)
-      if (c[k] == c[(k + 1) % c.size()]) mergeable[size_t(f)] = 0;  // an edge of no length
     if (normal[size_t(f)].isZero() || !(area[size_t(f)] > 0.0)) mergeable[size_t(f)] = 0;
   }
   // The face using each directed edge (-1: more than one).

@@ -56,7 +56,8 @@ bool scene_needs_no_visibility(const Scene& scene, std::string* reason = nullptr
 //
 // An occluder is a convex polygon, the union of scene faces that are coplanar (unit plane
 // normals within 1e-9 rad, plane offsets within tolerance()), of one orientation and joined by
-// shared edges (two corners within tolerance()), when that union is one convex polygon without
+// shared edges (the same two scene vertices; load_scene welds corners within 1e-9 of the scene
+// diagonal, the tolerance), when that union is one convex polygon without
 // holes: its boundary one loop, convex once collinear corners are removed, of the faces' summed
 // area within 1e-9 relative. A group of such faces whose union is not convex (an L-shaped
 // floor, a wall round a door) is split into convex pieces: neighbouring pieces, starting from

@@ -26,10 +26,11 @@ namespace photometria::visibility_detail {
 struct MergedOccluders {
   std::vector<std::vector<int>> faces;    // per occluder: its scene faces, ascending
   std::vector<std::vector<int>> corners;  // per occluder: its corners, counter-clockwise, as scene
-                                          // vertex indices (the smallest of those within tol)
+                                          // vertex indices
 };
 // Coplanar scene faces (unit normals within 1e-9 rad, plane offsets within tol, metres) of one
-// orientation that share edges (two corners within tol) are merged into their union where it is
+// orientation that share edges (the same two scene vertices: load_scene welds corners within
+// about tol) are merged into their union where it is
 // one convex polygon without holes (one boundary loop, convex once collinear corners are
 // removed, of the faces' summed area within 1e-9 relative); a group whose union is not convex
 // is split into convex pieces by merging neighbouring pieces while their union is convex. The
