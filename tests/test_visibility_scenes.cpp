@@ -40,7 +40,7 @@ TEST(VisibilityScenes, CulledShaftsAreReallyEmpty) {
   const Scene room = room_with_table();
   const PatchMesh mesh = subdivide(room, {0.34, 0.0});
   const ShaftCuller culler(room);
-  std::vector<int> everything(culler.face_count()), occ;
+  std::vector<int> everything(culler.occluder_count()), occ;
   std::iota(everything.begin(), everything.end(), 0);
   const double tol = plane_tolerance(mesh);
   int culled = 0, kept = 0, occluded_kept = 0;
@@ -53,7 +53,8 @@ TEST(VisibilityScenes, CulledShaftsAreReallyEmpty) {
       culler.occluders(a, mesh.patches[i].corner_count, b, mesh.patches[j].corner_count, occ);
       const Receiver x{mesh.patches[i].centroid, mesh.patches[i].normal};
       const double f0 = lambert_form_factor(x, b, mesh.patches[j].corner_count);
-      const double fv = exact_visible_form_factor(x, b, mesh.patches[j].corner_count, culler.faces(), everything);
+      const double fv =
+          exact_visible_form_factor(x, b, mesh.patches[j].corner_count, culler.occluder_polygons(), everything);
       if (occ.empty()) {
         ++culled;
         EXPECT_NEAR(fv, f0, 1e-12) << i << " " << j;
@@ -61,7 +62,8 @@ TEST(VisibilityScenes, CulledShaftsAreReallyEmpty) {
         ++kept;
         occluded_kept += fv < f0 - 1e-12;
         // The kept list is enough: clipping by it alone gives the same as by every face.
-        EXPECT_NEAR(exact_visible_form_factor(x, b, mesh.patches[j].corner_count, culler.faces(), occ), fv, 1e-13);
+        EXPECT_NEAR(exact_visible_form_factor(x, b, mesh.patches[j].corner_count, culler.occluder_polygons(), occ), fv,
+                    1e-13);
       }
     }
   EXPECT_GT(culled, kept);  // most shafts of a room with one small table are empty
@@ -78,8 +80,8 @@ TEST(VisibilityScenes, FaceTreeFindsEveryOccluderInABusyRoom) {
                         Vec3(0.12 + a / 6.5, 0.12 + b / 6.5, 0.1 + 0.05 * ((a + b) % 3)));
   const PatchMesh mesh = subdivide(room, {0.34, 0.0});
   const ShaftCuller culler(room);
-  ASSERT_EQ(culler.face_count(), 222);
-  std::vector<int> everything(culler.face_count()), occ;
+  ASSERT_EQ(culler.occluder_count(), 222);
+  std::vector<int> everything(culler.occluder_count()), occ;
   std::iota(everything.begin(), everything.end(), 0);
   const double tol = plane_tolerance(mesh);
   int checked = 0, culled = 0;
@@ -92,8 +94,10 @@ TEST(VisibilityScenes, FaceTreeFindsEveryOccluderInABusyRoom) {
       culler.occluders(a, mesh.patches[i].corner_count, b, mesh.patches[j].corner_count, occ);
       EXPECT_LT(occ.size(), everything.size());
       const Receiver x{mesh.patches[i].centroid, mesh.patches[i].normal};
-      const double fv = exact_visible_form_factor(x, b, mesh.patches[j].corner_count, culler.faces(), everything);
-      EXPECT_NEAR(exact_visible_form_factor(x, b, mesh.patches[j].corner_count, culler.faces(), occ), fv, 1e-13)
+      const double fv =
+          exact_visible_form_factor(x, b, mesh.patches[j].corner_count, culler.occluder_polygons(), everything);
+      EXPECT_NEAR(exact_visible_form_factor(x, b, mesh.patches[j].corner_count, culler.occluder_polygons(), occ), fv,
+                  1e-13)
           << i << " " << j;
       ++checked;
       culled += occ.empty();
@@ -277,7 +281,7 @@ TEST(VisibilityScenes, GroupedCullerKeepsEveryOccluderItNeeds) {
     EXPECT_LE(*std::max_element(per_tile.begin(), per_tile.end()), tile_patches);
     EXPECT_LT(grouped.tile_count(), previous_tiles);
     previous_tiles = grouped.tile_count();
-    std::vector<int> everything(culler.face_count()), occ, occ_grouped;
+    std::vector<int> everything(culler.occluder_count()), occ, occ_grouped;
     std::iota(everything.begin(), everything.end(), 0);
     const double tol = plane_tolerance(mesh);
     int checked = 0, culled_pair = 0, culled_grouped = 0, occluded = 0;
@@ -297,8 +301,9 @@ TEST(VisibilityScenes, GroupedCullerKeepsEveryOccluderItNeeds) {
           grouped.occluders(j, b, nb, occ_grouped);
           EXPECT_TRUE(std::includes(occ.begin(), occ.end(), occ_grouped.begin(), occ_grouped.end())) << i << " " << j;
           const Receiver x{pi.centroid, pi.normal};
-          const double fv = exact_visible_form_factor(x, b, nb, culler.faces(), everything);
-          EXPECT_NEAR(exact_visible_form_factor(x, b, nb, culler.faces(), occ_grouped), fv, 1e-13) << i << " " << j;
+          const double fv = exact_visible_form_factor(x, b, nb, culler.occluder_polygons(), everything);
+          EXPECT_NEAR(exact_visible_form_factor(x, b, nb, culler.occluder_polygons(), occ_grouped), fv, 1e-13)
+              << i << " " << j;
           occluded += fv < lambert_form_factor(x, b, nb) - 1e-12;
           culled_pair += occ.empty();
           culled_grouped += occ_grouped.empty();
@@ -322,7 +327,7 @@ TEST(VisibilityScenes, ConvexSolidsCastShadowsWithTheirFrontFacesOnly) {
   const ShaftCuller culler(room);
   EXPECT_EQ(culler.convex_solid_count(), static_cast<int>(validation::bench_room_furniture().size()));
   const PatchMesh mesh = subdivide(room, {0.3, 0.0});
-  std::vector<int> everything(culler.face_count());
+  std::vector<int> everything(culler.occluder_count());
   std::iota(everything.begin(), everything.end(), 0);
   std::vector<int> kept;
   const double tol = plane_tolerance(mesh);
@@ -332,16 +337,18 @@ TEST(VisibilityScenes, ConvexSolidsCastShadowsWithTheirFrontFacesOnly) {
     const Patch& pi = mesh.patches[i];
     const Receiver x{pi.centroid, pi.normal};
     kept = everything;
-    culler.drop_hidden_faces(x.point, kept);
+    culler.drop_hidden_occluders(x.point, kept);
     reduced += kept.size() < everything.size();
     for (int j = i % 11; j < mesh.size(); j += 11) {
       if (i == j || facing_away(mesh, i, j, tol)) continue;
       mesh.polygon(j, b);
       const int nb = mesh.patches[j].corner_count;
-      const double all = exact_visible_form_factor(x, b, nb, culler.faces(), everything);
-      EXPECT_NEAR(exact_visible_form_factor(x, b, nb, culler.faces(), kept), all, 1e-13) << i << " " << j;
+      const double all = exact_visible_form_factor(x, b, nb, culler.occluder_polygons(), everything);
+      EXPECT_NEAR(exact_visible_form_factor(x, b, nb, culler.occluder_polygons(), kept), all, 1e-13) << i << " " << j;
       // One shadow volume per solid (its silhouette and front faces) hides the same.
-      EXPECT_NEAR(exact_visible_form_factor(x, b, nb, culler.faces(), kept, &culler.normals(), &culler), all, 1e-13)
+      EXPECT_NEAR(
+          exact_visible_form_factor(x, b, nb, culler.occluder_polygons(), kept, &culler.occluder_normals(), &culler),
+          all, 1e-13)
           << i << " " << j;
       occluded += all < lambert_form_factor(x, b, nb) - 1e-12;
       ++checked;
@@ -354,7 +361,7 @@ TEST(VisibilityScenes, ConvexSolidsCastShadowsWithTheirFrontFacesOnly) {
   const validation::BenchBox leg = validation::bench_room_furniture()[1];
   const Vec3 under_leg(0.5 * (leg.lo.x() + leg.hi.x()), 0.5 * (leg.lo.y() + leg.hi.y()), 0.0);
   kept = everything;
-  culler.drop_hidden_faces(under_leg, kept);
+  culler.drop_hidden_occluders(under_leg, kept);
   const int first_leg_face = 6 + 1 + 6 * 1;  // room, light, table top, then the leg (bench.h)
   for (int f = first_leg_face; f < first_leg_face + 6; ++f)
     EXPECT_TRUE(std::find(kept.begin(), kept.end(), f) != kept.end()) << f;
@@ -380,7 +387,7 @@ TEST(VisibilityScenes, PointVisibilityPerTileEqualsClippingEachPatch) {
       const PatchMesh mesh = subdivide(c.scene, {c.edge, 0.0});
       const Visibility vis(c.scene, VisibilityMethod::Exact);
       PointVisibility from_point(vis, mesh, culling);
-      std::vector<int> everything(vis.culler().face_count());
+      std::vector<int> everything(vis.culler().occluder_count());
       std::iota(everything.begin(), everything.end(), 0);
       const double tol = plane_tolerance(mesh);
       int checked = 0, shadowed = 0, partly = 0, tile_hidden = 0, tile_clear = 0;
@@ -407,8 +414,8 @@ TEST(VisibilityScenes, PointVisibilityPerTileEqualsClippingEachPatch) {
             if (above <= tol || pj.normal.dot(x.point - pj.centroid) <= tol) continue;
             const double f0 = lambert_form_factor(x, b, pj.corner_count);
             if (!(f0 > 0.0)) continue;
-            const double want =
-                std::min(f0, exact_visible_form_factor(x, b, pj.corner_count, vis.culler().faces(), everything));
+            const double want = std::min(
+                f0, exact_visible_form_factor(x, b, pj.corner_count, vis.culler().occluder_polygons(), everything));
             bool unshadowed = false;
             // Asked before visible() on every other receiver, after it on the others: the answer
             // must not depend on whether the tile was clipped already.

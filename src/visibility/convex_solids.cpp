@@ -1,8 +1,9 @@
-// Convexity among the scene's faces: a scene that is one convex enclosure needs no visibility
-// at all (scene_needs_no_visibility), and the convex solids in it (closed, consistently
-// oriented components of faces, such as boxes) cast their shadow through the faces toward a
-// point outside them only (ShaftCuller::drop_hidden_faces; shadow_clipping.cpp builds their
-// one shadow volume from the solids and face neighbours found here).
+// Convexity among the scene's faces and occluders: a scene that is one convex enclosure needs no
+// visibility at all (scene_needs_no_visibility, over the faces), and the convex solids among the
+// occluders (closed, consistently oriented components of occluders, such as boxes, however
+// finely their faces are meshed) cast their shadow through the occluders toward a point outside
+// them only (ShaftCuller::drop_hidden_occluders; shadow_clipping.cpp builds their one shadow
+// volume from the solids and occluder neighbours found here).
 #include <map>
 #include <numeric>
 #include <sstream>
@@ -38,25 +39,25 @@ bool scene_needs_no_visibility(const Scene& scene, std::string* reason) {
   return true;
 }
 
-void ShaftCuller::find_convex_solids(const Scene& scene) {
-  const int n = static_cast<int>(scene.faces.size());
+void ShaftCuller::find_convex_solids() {
+  const int n = occluder_count();
   solid_of_.assign(size_t(n), -1);
-  // Faces joined by shared edges (vertex index pairs), union–find.
+  // Occluders joined by shared edges (vertex id pairs), union–find.
   std::vector<int> parent(static_cast<size_t>(n));
   std::iota(parent.begin(), parent.end(), 0);
   auto root = [&](int f) {
     while (parent[size_t(f)] != f) f = parent[size_t(f)] = parent[size_t(parent[size_t(f)])];
     return f;
   };
-  std::map<std::pair<int, int>, std::vector<int>> edge_faces;  // directed edge -> faces using it
+  std::map<std::pair<int, int>, std::vector<int>> edge_faces;  // directed edge -> occluders using it
   for (int f = 0; f < n; ++f) {
-    const std::vector<int>& v = scene.faces[size_t(f)].vertices;
+    const std::vector<int>& v = occluder_corners_[size_t(f)];
     for (size_t k = 0; k < v.size(); ++k) edge_faces[{v[k], v[(k + 1) % v.size()]}].push_back(f);
   }
-  // The face across each edge (the one using its reverse), where there is exactly one.
+  // The occluder across each edge (the one using its reverse), where there is exactly one.
   neighbours_.assign(size_t(n), {});
   for (int f = 0; f < n; ++f) {
-    const std::vector<int>& v = scene.faces[size_t(f)].vertices;
+    const std::vector<int>& v = occluder_corners_[size_t(f)];
     neighbours_[size_t(f)].assign(v.size(), -1);
     for (size_t k = 0; k < v.size(); ++k) {
       const auto twin = edge_faces.find({v[(k + 1) % v.size()], v[k]});
@@ -66,7 +67,7 @@ void ShaftCuller::find_convex_solids(const Scene& scene) {
   std::vector<char> manifold(static_cast<size_t>(n), 1);
   for (const auto& [edge, faces] : edge_faces) {
     const auto twin = edge_faces.find({edge.second, edge.first});
-    // Closed and consistently oriented: each directed edge once, its reverse once, in another face.
+    // Closed and consistently oriented: each directed edge once, its reverse once, in another occluder.
     if (faces.size() != 1 || twin == edge_faces.end() || twin->second.size() != 1 || twin->second[0] == faces[0]) {
       for (int f : faces) manifold[size_t(f)] = 0;
       continue;
@@ -80,11 +81,11 @@ void ShaftCuller::find_convex_solids(const Scene& scene) {
     (void)r;
     bool eligible = faces.size() >= 4;
     for (int f : faces) eligible = eligible && manifold[size_t(f)] && !normals_[size_t(f)].isZero();
-    // Convex with outward normals: every vertex of the solid on or behind every face's plane.
+    // Convex with outward normals: every corner of the solid on or behind every occluder's plane.
     for (size_t i = 0; i < faces.size() && eligible; ++i)
       for (int g : faces)
-        for (const Vec3& v : faces_[size_t(g)])
-          eligible = eligible && normals_[size_t(faces[i])].dot(v - faces_[size_t(faces[i])][0]) <= tol_;
+        for (const Vec3& v : occluders_[size_t(g)])
+          eligible = eligible && normals_[size_t(faces[i])].dot(v - occluders_[size_t(faces[i])][0]) <= tol_;
     if (!eligible) continue;
     const int id = static_cast<int>(solids_.size());
     solids_.push_back(faces);
@@ -95,8 +96,8 @@ void ShaftCuller::find_convex_solids(const Scene& scene) {
 bool ShaftCuller::hidden_from(const Vec3& x, int f, std::vector<signed char>& outside_state,
                               std::vector<int>& touched) const {
   const int solid = solid_of_[size_t(f)];
-  // Signed distance of x in front of face g's plane.
-  auto height = [&](int g) { return normals_[size_t(g)].dot(x - faces_[size_t(g)][0]); };
+  // Signed distance of x in front of occluder g's plane.
+  auto height = [&](int g) { return normals_[size_t(g)].dot(x - occluders_[size_t(g)][0]); };
   if (solid < 0 || !(height(f) < -tol_)) return false;
   signed char& state = outside_state[size_t(solid)];
   if (state == 0) {
@@ -108,7 +109,7 @@ bool ShaftCuller::hidden_from(const Vec3& x, int f, std::vector<signed char>& ou
   return state == 1;
 }
 
-void ShaftCuller::drop_hidden_faces(const Vec3& x, std::vector<int>& faces) const {
+void ShaftCuller::drop_hidden_occluders(const Vec3& x, std::vector<int>& faces) const {
   if (solids_.empty()) return;
   thread_local std::vector<signed char> outside_state;
   thread_local std::vector<int> touched;

@@ -31,12 +31,12 @@ double Visibility::point_to_patch(const Receiver& x, const Vec3* source, int n, 
     if (narrowed.empty()) return unoccluded;
   }
   if (method_ == VisibilityMethod::Exact) {
-    // Only the faces of each convex solid that face x cast its shadow (see ShaftCuller).
+    // Only the occluders of each convex solid that face x cast its shadow (see ShaftCuller).
     thread_local std::vector<int> casting;
     casting = narrow ? occluders : narrowed;
-    culler_.drop_hidden_faces(x.point, casting);
-    return std::min(unoccluded,
-                    exact_visible_form_factor(x, source, n, culler_.faces(), casting, &culler_.normals(), &culler_));
+    culler_.drop_hidden_occluders(x.point, casting);
+    return std::min(unoccluded, exact_visible_form_factor(x, source, n, culler_.occluder_polygons(), casting,
+                                                          &culler_.occluder_normals(), &culler_));
   }
   // Start just inside the point's own surface when it sits on an edge or corner, so rays leave cleanly.
   const Vec3 start = x.approach.isZero() ? x.point : Vec3(x.point + 10 * rays_->surface_offset() * x.approach);
@@ -100,7 +100,7 @@ struct PointVisibility::Impl {
   // arena (below), visible ones first.
   struct TileClip {
     long long stamp = -1;
-    bool cut = false;  // false: no face shadows any of the tile
+    bool cut = false;  // false: no occluder shadows any of the tile
     int first = 0, visible = 0, hidden = 0;
     Vec3 normal;  // the tile's unit normal
     double eps = 0.0;
@@ -113,15 +113,15 @@ struct PointVisibility::Impl {
     double cos = -1.0, sin = 0.0;
     bool wide = true;
   };
-  // Cones of faces, structure of arrays for the filter loops below. A wide cone is stored with
+  // Cones of occluders, structure of arrays for the filter loops below. A wide cone is stored with
   // a zero axis and cos = −1e9, so that it passes every test against a cone that is not wide.
   struct ConeSet {
     std::vector<double> ax, ay, az, cos, sin;
-    std::vector<int> face;
-    size_t size() const { return face.size(); }
+    std::vector<int> occluder;
+    size_t size() const { return occluder.size(); }
     void resize(size_t n) {
       for (auto* v : {&ax, &ay, &az, &cos, &sin}) v->resize(n);
-      face.resize(n);
+      occluder.resize(n);
     }
     void set(size_t k, const Cone& c, int f) {
       ax[k] = c.wide ? 0.0 : c.axis.x();
@@ -129,7 +129,7 @@ struct PointVisibility::Impl {
       az[k] = c.wide ? 0.0 : c.axis.z();
       cos[k] = c.wide ? -1e9 : c.cos;
       sin[k] = c.wide ? 0.0 : c.sin;
-      face[k] = f;
+      occluder[k] = f;
     }
     // True when cone k may meet cone c (not wide): the angle between the axes at most the sum
     // of the half-angles (both below 90°: cos(α + β) = cos α cos β − sin α sin β), with 1e-12
@@ -159,11 +159,11 @@ struct PointVisibility::Impl {
   ShadowVolumes volumes;         // seen from x, shared by its tiles
   Polygon rel, part, work, tmp;  // scratch of visible()
   std::vector<double> values;
-  // Cone culling (see the header): the faces that may shadow from x and their cones.
+  // Cone culling (see the header): the occluders that may shadow from x and their cones.
   bool cones;
   long long candidates_for = -1;  // the point they belong to
   ConeSet candidates;
-  std::vector<int> faces, near;
+  std::vector<int> shadowing, near;
   std::vector<Vec3> directions;  // scratch of cone_of
   // A block: up to kBlockTiles consecutive tiles of one face (split_tiles makes them
   // neighbours), culled first, so a tile tests only its block's candidates.
@@ -179,23 +179,23 @@ struct PointVisibility::Impl {
   // meshes): the point its cone-culled occluder list belongs to, and whether that list is empty.
   std::vector<long long> listed;
   std::vector<unsigned char> no_occluders;
-  std::vector<unsigned char> bounding;  // per face: every scene corner on one side of its plane
+  std::vector<unsigned char> bounding;  // per occluder: every scene corner on one side of its plane
 
   Impl(const Visibility& v, const PatchMesh& mesh, PointCulling culling)
       : vis(&v), grouped(v.culler(), mesh, kPointTilePatches) {
     tiles.resize(size_t(grouped.tile_count()));
     cones = culling == PointCulling::Cones ||
-            (culling == PointCulling::Auto && v.culler().face_count() <= kConeCullingFaces);
-    // Faces with every scene corner on one closed side of their plane (a room's walls) block no
+            (culling == PointCulling::Auto && v.culler().occluder_count() <= kConeCullingOccluders);
+    // Occluders with every scene corner on one closed side of their plane (a room's walls) block no
     // segment between scene points: never candidates.
     const ShaftCuller& culler = v.culler();
-    bounding.assign(size_t(culler.face_count()), 0);
+    bounding.assign(size_t(culler.occluder_count()), 0);
     if (cones)
-      for (int f = 0; f < culler.face_count(); ++f) {
-        const Vec3& n = culler.normals()[size_t(f)];
-        const Vec3& w0 = culler.faces()[size_t(f)][0];
+      for (int f = 0; f < culler.occluder_count(); ++f) {
+        const Vec3& n = culler.occluder_normals()[size_t(f)];
+        const Vec3& w0 = culler.occluder_polygons()[size_t(f)][0];
         bool below = true, above = true;
-        for (const Polygon& g : culler.faces())
+        for (const Polygon& g : culler.occluder_polygons())
           for (const Vec3& y : g) {
             const double s = n.dot(y - w0);
             below = below && s <= culler.tolerance();
@@ -272,15 +272,15 @@ struct PointVisibility::Impl {
   void find_candidates() {
     candidates_for = generation;
     const ShaftCuller& culler = vis->culler();
-    faces.clear();
-    for (int f = 0; f < culler.face_count(); ++f)
-      if (!bounding[size_t(f)]) faces.push_back(f);
-    culler.drop_hidden_faces(x.point, faces);
-    candidates.resize(faces.size());
-    for (size_t k = 0; k < faces.size(); ++k) {
-      const Polygon& w = culler.faces()[size_t(faces[k])];
+    shadowing.clear();
+    for (int f = 0; f < culler.occluder_count(); ++f)
+      if (!bounding[size_t(f)]) shadowing.push_back(f);
+    culler.drop_hidden_occluders(x.point, shadowing);
+    candidates.resize(shadowing.size());
+    for (size_t k = 0; k < shadowing.size(); ++k) {
+      const Polygon& w = culler.occluder_polygons()[size_t(shadowing[k])];
       const int n = static_cast<int>(w.size());
-      candidates.set(k, n <= kMaxShaftPoints ? cone_of(w.data(), n, 0.0) : Cone{}, faces[k]);
+      candidates.set(k, n <= kMaxShaftPoints ? cone_of(w.data(), n, 0.0) : Cone{}, shadowing[k]);
     }
   }
 
@@ -311,7 +311,7 @@ struct PointVisibility::Impl {
       }
       block.near.resize(count);
     }
-    if (block.near.empty()) {  // no face's cone meets the block's: nothing shadows its tiles
+    if (block.near.empty()) {  // no occluder's cone meets the block's: nothing shadows its tiles
       c.occluders.clear();
       no_occluders[size_t(t)] = 1;
       return c.occluders;
@@ -321,11 +321,11 @@ struct PointVisibility::Impl {
     near.resize(block.near.size());
     size_t count = 0;
     for (int k : block.near) {
-      near[count] = candidates.face[size_t(k)];
+      near[count] = candidates.occluder[size_t(k)];
       count += ct.wide || candidates.may_meet(size_t(k), ct);
     }
     near.resize(count);
-    // In face order, as the candidates are: occluders_among keeps it, so the clipping's order is fixed.
+    // In occluder order, as the candidates are: occluders_among keeps it, so the clipping's order is fixed.
     vis->culler().occluders_among(&x.point, 1, corners, 4, near, c.occluders);
     no_occluders[size_t(t)] = c.occluders.empty();
     return c.occluders;
@@ -362,7 +362,7 @@ struct PointVisibility::Impl {
     clip_visible.clear();
     clip_hidden.clear();
     casting = tile_occluders(t);
-    if (!cones) vis->culler().drop_hidden_faces(x.point, casting);  // cone candidates have none
+    if (!cones) vis->culler().drop_hidden_occluders(x.point, casting);  // cone candidates have none
     Polygon& rect = clip_visible.push();
     rect.resize(4);
     double scale = 0.0;
@@ -372,8 +372,9 @@ struct PointVisibility::Impl {
     }
     c.eps = 1e-12 * scale;
     c.normal = newell_vector(rect.data(), 4).normalized();  // before `rect` is clipped away
-    c.cut = !casting.empty() && subtract_shadows(scale, vis->culler().faces(), casting, &vis->culler().normals(),
-                                                 clip_visible, &clip_hidden, &vis->culler(), volumes);
+    c.cut = !casting.empty() &&
+            subtract_shadows(scale, vis->culler().occluder_polygons(), casting, &vis->culler().occluder_normals(),
+                             clip_visible, &clip_hidden, &vis->culler(), volumes);
     if (c.cut) {
       // Boxes grown by what a flat tile allows out of its plane (GroupedShaftCuller), so a patch
       // a hair off the tile's plane still meets the pieces over it.

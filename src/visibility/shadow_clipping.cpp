@@ -1,5 +1,5 @@
 // Exact visibility: clip the source against shadow volumes in 3-D (Nishita & Nakamae 1985);
-// see shadow_clipping.h. The shadow volume of a face or a convex solid seen from a point, their
+// see shadow_clipping.h. The shadow volume of an occluder or a convex solid seen from a point, their
 // subtraction from convex pieces, and exact_visible_form_factor (visibility.h).
 #include "visibility/shadow_clipping.h"
 
@@ -42,7 +42,7 @@ void split_keep(const Polygon& in, const std::vector<double>& s, Polygon& inside
 
 // The shadow volume of a convex solid seen from x (shadow_clipping.h).
 bool solid_volume(const ShaftCuller& culler, int solid, const Vec3& x, std::vector<Plane>& volume, double& reach) {
-  const std::vector<int>& faces = culler.solid_faces(solid);
+  const std::vector<int>& faces = culler.solid_occluders(solid);
   const double tol = culler.tolerance();
   thread_local std::vector<int> front;
   front.clear();
@@ -50,8 +50,8 @@ bool solid_volume(const ShaftCuller& culler, int solid, const Vec3& x, std::vect
   int corners = 0;
   reach = 0.0;
   for (int g : faces) {
-    const Polygon& w = culler.faces()[size_t(g)];
-    if (culler.normals()[size_t(g)].dot(x - w[0]) > tol) front.push_back(g);
+    const Polygon& w = culler.occluder_polygons()[size_t(g)];
+    if (culler.occluder_normals()[size_t(g)].dot(x - w[0]) > tol) front.push_back(g);
     for (const Vec3& v : w) {
       centre += v - x;
       ++corners;
@@ -62,8 +62,8 @@ bool solid_volume(const ShaftCuller& culler, int solid, const Vec3& x, std::vect
   centre /= corners;
   auto is_front = [&](int g) { return std::find(front.begin(), front.end(), g) != front.end(); };
   for (int g : front) {
-    const Polygon& w = culler.faces()[size_t(g)];
-    const Vec3& n = culler.normals()[size_t(g)];
+    const Polygon& w = culler.occluder_polygons()[size_t(g)];
+    const Vec3& n = culler.occluder_normals()[size_t(g)];
     volume.push_back({-n, -n.dot(w[0] - x)});  // behind the face, away from x
     for (size_t k = 0; k < w.size(); ++k) {
       const int across = culler.neighbour(g, static_cast<int>(k));
@@ -181,9 +181,9 @@ bool subtract_shadows(double scale, const std::vector<Polygon>& faces, const std
 
 using namespace visibility_detail;
 
-double exact_visible_form_factor(const Receiver& receiver, const Vec3* source, int n, const std::vector<Polygon>& faces,
-                                 const std::vector<int>& which, const std::vector<Vec3>* normals,
-                                 const ShaftCuller* solids) {
+double exact_visible_form_factor(const Receiver& receiver, const Vec3* source, int n,
+                                 const std::vector<Polygon>& occluders, const std::vector<int>& which,
+                                 const std::vector<Vec3>* normals, const ShaftCuller* solids) {
   const Vec3& x = receiver.point;
   // Work relative to x: every wedge plane then passes through the origin.
   // Per-thread scratch: this runs once per occluded pair, and allocation was a tenth of its cost.
@@ -198,7 +198,7 @@ double exact_visible_form_factor(const Receiver& receiver, const Vec3* source, i
   }
   thread_local ShadowVolumes volumes;  // one call per point here
   volumes.start(x);
-  if (!subtract_shadows(scale, faces, which, normals, pieces, nullptr, solids, volumes))
+  if (!subtract_shadows(scale, occluders, which, normals, pieces, nullptr, solids, volumes))
     return lambert_form_factor(receiver, source, n);
   // Lambert's formula is additive over a partition of the source (an integral over directions).
   const Receiver at_origin{Vec3::Zero(), receiver.normal, receiver.approach};

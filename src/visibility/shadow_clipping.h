@@ -143,10 +143,11 @@ class ShadowVolumes {
 };
 
 // Subtracts from `pieces` (convex polygons relative to x, at most `scale` from it) the shadow
-// volumes of faces[which] seen from x: what is left is the part of them x sees. `shadows`
+// volumes of faces[which] (occluders, convex: ShaftCuller::occluder_polygons) seen from x: what
+// is left is the part of them x sees. `shadows`
 // (optional) receives the hidden parts; they are disjoint, and with what is left they partition
 // the input. Returns true when any face cut or hid a piece (false: the pieces are unchanged).
-// With `solids` (the culler whose faces these are), the listed faces of a convex solid that x is
+// With `solids` (the culler whose occluders these are), the listed ones of a convex solid that x is
 // clearly outside of are replaced by the solid's one shadow volume (see solid_volume).
 // `volumes`: the shadow volumes seen from x (started at x), reused across calls from one point.
 bool subtract_shadows(double scale, const std::vector<Polygon>& faces, const std::vector<int>& which,

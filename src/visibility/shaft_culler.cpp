@@ -1,10 +1,12 @@
 // Shaft culling (Haines & Wallace 1994; visibility.h, 1.): the shaft of two polygons (or a point
 // and a polygon) as its bounding box and the planes of its convex hull, and ShaftCuller's AABB
-// tree over the scene faces' bounding boxes, which finds the faces that may meet a shaft.
+// tree over the occluders' bounding boxes (occluders.cpp merges the scene faces into them), which
+// finds the occluders that may meet a shaft.
 #include <algorithm>
 #include <cmath>
 #include <numeric>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 #include "visibility/visibility.h"
@@ -33,9 +35,10 @@ class Shaft {
   }
   const Eigen::AlignedBox3d& box() const { return box_; }
 
-  // True when face w (unit plane normal `normal`) cannot meet the open shaft: every corner of A
-  // and B on one closed side of its plane (no open segment crosses it; this leaves out the faces
-  // A and B lie in and faces they only touch), or w wholly on the outer side of one hull plane.
+  // True when occluder w (unit plane normal `normal`) cannot meet the open shaft: every corner of
+  // A and B on one closed side of its plane (no open segment crosses it; this leaves out the
+  // occluders A and B lie in and those they only touch), or w wholly on the outer side of one
+  // hull plane.
   bool misses(const Polygon& w, const Vec3& normal) {
     bool below = true, above = true;
     for (int k = 0; k < na_ + nb_; ++k) {
@@ -142,25 +145,40 @@ class Shaft {
 
 ShaftCuller::ShaftCuller(const Scene& scene) {
   tol_ = 1e-9 * std::max(bounding_diagonal(scene.vertices), 1e-30);
-  const int n = static_cast<int>(scene.faces.size());
-  faces_.reserve(n);
-  for (int f = 0; f < n; ++f) {
-    faces_.push_back(scene.face_polygon(f));
-    normals_.push_back(polygon_normal(faces_.back()));
+  const int faces = static_cast<int>(scene.faces.size());
+  scene_faces_.reserve(size_t(faces));
+  for (int f = 0; f < faces; ++f) scene_faces_.push_back(scene.face_polygon(f));
+  MergedOccluders merged = merge_coplanar_faces(scene, tol_);
+  const int n = static_cast<int>(merged.faces.size());
+  occluder_of_face_.assign(size_t(faces), -1);
+  occluders_.reserve(size_t(n));
+  for (int o = 0; o < n; ++o) {
+    const std::vector<int>& of = merged.faces[size_t(o)];
+    if (of.size() == 1) {
+      occluders_.push_back(scene_faces_[size_t(of[0])]);  // a face joined to none: itself, unchanged
+    } else {
+      Polygon p;
+      for (int v : merged.corners[size_t(o)]) p.push_back(scene.vertices[size_t(v)]);
+      occluders_.push_back(std::move(p));
+    }
+    for (int f : of) occluder_of_face_[size_t(f)] = o;
+    normals_.push_back(polygon_normal(occluders_.back()));
     Eigen::AlignedBox3d box;
-    for (const Vec3& v : faces_.back()) box.extend(v);
+    for (const Vec3& v : occluders_.back()) box.extend(v);
     boxes_.push_back(box);
   }
-  order_.resize(n);
+  occluder_faces_ = std::move(merged.faces);
+  occluder_corners_ = std::move(merged.corners);
+  order_.resize(size_t(n));
   std::iota(order_.begin(), order_.end(), 0);
   if (n > 0) {
     nodes_.reserve(2 * n);
     build(0, n);
   }
-  find_convex_solids(scene);
+  find_convex_solids();
 }
 
-// Median split on the longest axis of the box centres; leaves hold up to 4 faces.
+// Median split on the longest axis of the box centres; leaves hold up to 4 occluders.
 int ShaftCuller::build(int first, int count) {
   const int id = static_cast<int>(nodes_.size());
   nodes_.emplace_back();
@@ -194,8 +212,9 @@ void ShaftCuller::occluders(const Vec3* a, int na, const Vec3* b, int nb, std::v
   if (na + nb > kMaxShaftPoints) throw std::invalid_argument("ShaftCuller: a shaft of more than 24 points");
   if (drop_hidden && na != 1) throw std::invalid_argument("ShaftCuller: drop_hidden needs a point receiver");
   Shaft shaft(a, na, b, nb, tol_);
-  // drop_hidden: the faces the point is clearly behind, of convex solids it is clearly outside
-  // of, are skipped before the costlier shaft tests (drop_hidden_faces() during the search).
+  // drop_hidden: the occluders the point is clearly behind, of convex solids it is clearly
+  // outside of, are skipped before the costlier shaft tests (drop_hidden_occluders() during the
+  // search).
   thread_local std::vector<signed char> outside_state;
   thread_local std::vector<int> touched;
   if (drop_hidden) outside_state.resize(solids_.size(), 0);
@@ -209,7 +228,8 @@ void ShaftCuller::occluders(const Vec3* a, int na, const Vec3* b, int nb, std::v
     if (node.left < 0) {
       for (int k = node.first; k < node.first + node.count; ++k) {
         const int f = order_[k];
-        if (boxes_meet(boxes_[f], shaft.box()) && !(drop_hidden && hidden(f)) && !shaft.misses(faces_[f], normals_[f]))
+        if (boxes_meet(boxes_[f], shaft.box()) && !(drop_hidden && hidden(f)) &&
+            !shaft.misses(occluders_[f], normals_[f]))
           out.push_back(f);
       }
     } else {
@@ -231,7 +251,7 @@ void ShaftCuller::occluders_among(const Vec3* a, int na, const Vec3* b, int nb, 
   if (na + nb > kMaxShaftPoints) throw std::invalid_argument("ShaftCuller: a shaft of more than 24 points");
   Shaft shaft(a, na, b, nb, tol_);
   for (int f : candidates)
-    if (boxes_meet(boxes_[f], shaft.box()) && !shaft.misses(faces_[f], normals_[f])) out.push_back(f);
+    if (boxes_meet(boxes_[f], shaft.box()) && !shaft.misses(occluders_[f], normals_[f])) out.push_back(f);
 }
 
 }  // namespace photometria

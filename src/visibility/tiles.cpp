@@ -1,6 +1,8 @@
 // Tiles: a mesh's patches grouped per scene face into tiles of neighbouring patches, each
 // bounded by a rectangle in the face's plane (or a box), and the hierarchical shaft culling of
 // one receiver against them: face, then tile, then patch (GroupedShaftCuller, visibility.h).
+// Tiles and the face level are over scene faces (what patches belong to); the lists they find
+// hold occluders (ShaftCuller: scene faces merged into convex polygons).
 #include <algorithm>
 #include <stdexcept>
 #include <utility>
@@ -39,7 +41,7 @@ void split_tiles(std::vector<int>& patches, const std::vector<Eigen::Vector2d>& 
 GroupedShaftCuller::GroupedShaftCuller(const ShaftCuller& culler, const PatchMesh& mesh, int tile_patches)
     : culler_(&culler), tile_of_patch_(size_t(mesh.size()), -1) {
   if (tile_patches < 1) throw std::invalid_argument("GroupedShaftCuller: tile_patches must be at least 1");
-  const int faces = culler.face_count();
+  const int faces = culler.scene_face_count();
   std::vector<std::vector<int>> by_face(static_cast<size_t>(faces));
   for (int j = 0; j < mesh.size(); ++j)
     if (mesh.patches[size_t(j)].face >= 0 && mesh.patches[size_t(j)].face < faces)
@@ -49,7 +51,7 @@ GroupedShaftCuller::GroupedShaftCuller(const ShaftCuller& culler, const PatchMes
     std::vector<int>& patches = by_face[size_t(f)];
     if (patches.empty()) continue;
     // An orthonormal frame (u, v, w) with w the face's normal (any frame if it has none).
-    Vec3 w = polygon_normal(culler.faces()[size_t(f)]);
+    Vec3 w = polygon_normal(culler.scene_faces()[size_t(f)]);
     if (w.isZero()) w = Vec3::UnitZ();
     const Vec3 u = w.unitOrthogonal(), v = w.cross(u);
     for (int j : patches)
@@ -101,17 +103,17 @@ const std::vector<int>& GroupedShaftCuller::group(int g) {
   std::vector<int>& list = groups_[size_t(g)];
   if (stamp_[size_t(g)] == generation_) return list;
   stamp_[size_t(g)] = generation_;
-  const int faces = culler_->face_count();
+  const int faces = culler_->scene_face_count();
   if (g < faces) {
-    const Polygon& face = culler_->faces()[size_t(g)];
-    // From a point, a convex solid's back faces cast no shadow of their own (drop_hidden_faces):
-    // leaving them out here shortens every list below.
+    const Polygon& face = culler_->scene_faces()[size_t(g)];
+    // From a point, a convex solid's back occluders cast no shadow of their own
+    // (drop_hidden_occluders): leaving them out here shortens every list below.
     culler_->occluders(receiver_, receiver_count_, face.data(), static_cast<int>(face.size()), list,
                        /*drop_hidden=*/receiver_count_ == 1);
     return list;
   }
   const Tile& tile = tiles_[size_t(g - faces)];
-  if (static_cast<int>(culler_->faces()[size_t(tile.face)].size()) + 4 > kMaxShaftPoints)
+  if (static_cast<int>(culler_->scene_faces()[size_t(tile.face)].size()) + 4 > kMaxShaftPoints)
     culler_->occluders(receiver_, receiver_count_, tile.corners, tile.corner_count,
                        list);  // a face of many corners: no face level
   else culler_->occluders_among(receiver_, receiver_count_, tile.corners, tile.corner_count, group(tile.face), list);
@@ -124,7 +126,7 @@ void GroupedShaftCuller::occluders(int patch, const Vec3* b, int nb, std::vector
     culler_->occluders(receiver_, receiver_count_, b, nb, out);
     return;
   }
-  culler_->occluders_among(receiver_, receiver_count_, b, nb, group(culler_->face_count() + t), out);
+  culler_->occluders_among(receiver_, receiver_count_, b, nb, group(culler_->scene_face_count() + t), out);
 }
 
 int GroupedShaftCuller::tile_of(int patch) const {

@@ -1,15 +1,24 @@
 // Visibility between patches: which pairs need it, and the visible part of a form factor.
 //
-// Occluders are every scene face, two-sided (docs/theory.md "Units and conventions": emission and
-// reflection are one-sided, occlusion is two-sided). Three pieces, used per receiver point x (a quadrature point of a
-// patch, or an output vertex) and source patch P:
+// Occluders are the scene's surfaces, two-sided (docs/theory.md "Units and conventions": emission
+// and reflection are one-sided, occlusion is two-sided): convex polygons, each the union of
+// coplanar, edge-connected scene faces of one orientation (ShaftCuller). A wall, floor or table
+// top that arrives meshed into hundreds of small quads is one occluder (or a few convex pieces),
+// a box meshed into quads is 6 and one convex solid: the cost of exact visibility (3.) grows
+// with the surfaces that matter, not with the face count (an occluder's shadow volume costs
+// what a face's does, the clipping's cuts and pieces go with the occluders met). The occluders
+// cover exactly the points the faces cover, so what they block is what the faces block. Scene
+// faces stay what the patches belong to (GroupedShaftCuller groups by them) and what rays hit.
+// Three pieces, used per receiver point x (a quadrature point of a patch, or an output vertex)
+// and source patch P:
 //
 //  1. Shaft culling (Haines & Wallace, "Shaft culling for efficient ray-cast radiosity", 1994):
 //     the shaft of a pair is the convex hull of the two patches (or of the point and the patch).
-//     A face that does not meet it cannot block any segment between them, so a pair whose shaft
-//     meets no face needs no visibility work at all. Candidate faces come from an AABB tree over
-//     the faces' bounding boxes, so a query costs O(log N_faces + candidates), not O(N_faces).
-//  2. Ray casting (Embree 3): V(x, P) = Σ_k w_k v_k / Σ_k w_k over K segments from x to
+//     An occluder that does not meet it cannot block any segment between them, so a pair whose
+//     shaft meets none needs no visibility work at all. Candidates come from an AABB tree over
+//     the occluders' bounding boxes, so a query costs O(log N_occluders + candidates), not
+//     O(N_occluders).
+//  2. Ray casting (Embree 3, over the scene faces): V(x, P) = Σ_k w_k v_k / Σ_k w_k over K segments from x to
 //     stratified points y_k on P, v_k = 1 if no face blocks the segment, w_k = cos θx cos θy / r²
 //     the form-factor integrand at y_k (Wallace, Elmquist & Haines 1989 weight each ray by its
 //     differential form factor the same way); the visible factor is F(dA_x -> P) · V(x, P).
@@ -43,46 +52,64 @@ namespace photometria {
 // face's plane, where the form factor is 0 anyway). Explains the verdict in `reason`.
 bool scene_needs_no_visibility(const Scene& scene, std::string* reason = nullptr);
 
-// Shaft culling over the scene's faces (see 1. above).
+// Shaft culling over the scene's occluders (see 1. above).
+//
+// An occluder is a convex polygon, the union of scene faces that are coplanar (unit plane
+// normals within 1e-9 rad, plane offsets within tolerance()), of one orientation and joined by
+// shared edges (the same two scene vertices; load_scene welds corners within 1e-9 of the scene
+// diagonal, the tolerance), when that union is one convex polygon without
+// holes: its boundary one loop, convex once collinear corners are removed, of the faces' summed
+// area within 1e-9 relative. A group of such faces whose union is not convex (an L-shaped
+// floor, a wall round a door) is split into convex pieces: neighbouring pieces, starting from
+// the faces, are merged while their union is convex. A face joined to none is its own occluder,
+// unchanged. So the occluders cover exactly the points the faces cover: they block the same
+// segments (a segment whose open interior crosses one). Occluders are numbered in the order of
+// their first scene faces: with nothing to merge, occluder f is scene face f.
 class ShaftCuller {
  public:
   explicit ShaftCuller(const Scene& scene);
 
-  int face_count() const { return static_cast<int>(faces_.size()); }
-  const std::vector<Polygon>& faces() const { return faces_; }
-  const std::vector<Vec3>& normals() const { return normals_; }  // unit plane normals (polygon_normal)
-  double tolerance() const { return tol_; }                      // metres, 1e-9 × scene diagonal
+  int occluder_count() const { return static_cast<int>(occluders_.size()); }
+  const std::vector<Polygon>& occluder_polygons() const { return occluders_; }
+  const std::vector<Vec3>& occluder_normals() const { return normals_; }  // unit plane normals (polygon_normal)
+  // The scene faces an occluder is the union of (ascending), and the occluder of a scene face.
+  const std::vector<int>& occluder_faces(int o) const { return occluder_faces_[size_t(o)]; }
+  int occluder_of_face(int f) const { return occluder_of_face_[size_t(f)]; }
+  // The scene faces themselves (Scene::face_polygon), what patches and tiles belong to.
+  int scene_face_count() const { return static_cast<int>(scene_faces_.size()); }
+  const std::vector<Polygon>& scene_faces() const { return scene_faces_; }
+  double tolerance() const { return tol_; }  // metres, 1e-9 × scene diagonal
 
-  // Replaces `out` with the faces that may meet the open shaft of A and B: convex planar
-  // polygons (3 or 4 corners) or, with a count of 1, a single point. A face is left out when its
+  // Replaces `out` with the occluders that may meet the open shaft of A and B: convex planar
+  // polygons (3 or 4 corners) or, with a count of 1, a single point. An occluder is left out when its
   // bounding box misses the shaft's, when every corner of A and B lies on one closed side of its
-  // plane (this leaves out the faces A and B lie in and faces they only touch), or when it lies
-  // wholly on the outer closed side of one of the hull's planes. Conservative: a face kept may
-  // still miss the shaft (edge–edge separating axes are not tried); a face left out cannot block.
+  // plane (this leaves out the occluders A and B lie in and those they only touch), or when it lies
+  // wholly on the outer closed side of one of the hull's planes. Conservative: an occluder kept may
+  // still miss the shaft (edge–edge separating axes are not tried); one left out cannot block.
   // A and B together have at most 24 points (std::invalid_argument otherwise). With
-  // `drop_hidden` (A a single point x, na = 1), drop_hidden_faces(x, out) is applied as well,
+  // `drop_hidden` (A a single point x, na = 1), drop_hidden_occluders(x, out) is applied as well,
   // cheaply, during the search.
   void occluders(const Vec3* a, int na, const Vec3* b, int nb, std::vector<int>& out, bool drop_hidden = false) const;
 
-  // The same test over `candidates` only (sorted face indices), into `out` in their order: exact
-  // when the candidates are the occluders of a wider shaft that contains this one (a face that
+  // The same test over `candidates` only (sorted occluder indices), into `out` in their order: exact
+  // when the candidates are the occluders of a wider shaft that contains this one (an occluder that
   // misses the wider shaft misses this one too).
   void occluders_among(const Vec3* a, int na, const Vec3* b, int nb, const std::vector<int>& candidates,
                        std::vector<int>& out) const;
 
-  // Removes from `faces` those that cannot add to the shadow seen from x: the faces of a convex
-  // solid (a closed, consistently oriented component of faces joined by shared edges, every vertex
-  // on or behind every face's plane: a box) that x lies clearly behind, when x lies clearly
-  // outside the solid. Any segment from x that meets such a back face enters the solid through a
-  // face x is in front of first, so the solid's shadow is that of its faces toward x. A point on
-  // the solid's surface or inside it keeps every face.
-  void drop_hidden_faces(const Vec3& x, std::vector<int>& faces) const;
+  // Removes from `occluders` those that cannot add to the shadow seen from x: the occluders of a
+  // convex solid (a closed, consistently oriented component of occluders joined by shared edges,
+  // every corner on or behind every one's plane: a box) that x lies clearly behind, when x lies
+  // clearly outside the solid. Any segment from x that meets such a back occluder enters the solid
+  // through one x is in front of first, so the solid's shadow is that of its occluders toward x. A
+  // point on the solid's surface or inside it keeps every occluder.
+  void drop_hidden_occluders(const Vec3& x, std::vector<int>& occluders) const;
   int convex_solid_count() const { return static_cast<int>(solids_.size()); }
-  // The convex solid of face f (-1: none), a solid's faces, and the face across edge k (corner k
-  // to k + 1) of face f (-1 where the edge is not shared by exactly one other face).
-  int solid_of(int f) const { return solid_of_[size_t(f)]; }
-  const std::vector<int>& solid_faces(int solid) const { return solids_[size_t(solid)]; }
-  int neighbour(int f, int k) const { return neighbours_[size_t(f)][size_t(k)]; }
+  // The convex solid of occluder o (-1: none), a solid's occluders, and the occluder across edge k
+  // (corner k to k + 1) of occluder o (-1 where the edge is not shared by exactly one other).
+  int solid_of(int o) const { return solid_of_[size_t(o)]; }
+  const std::vector<int>& solid_occluders(int solid) const { return solids_[size_t(solid)]; }
+  int neighbour(int o, int k) const { return neighbours_[size_t(o)][size_t(k)]; }
 
  private:
   struct Node {
@@ -91,33 +118,38 @@ class ShaftCuller {
     int first = 0, count = 0;   // leaves: range in order_
   };
   int build(int first, int count);
-  void find_convex_solids(const Scene& scene);
-  // True when x is clearly behind face f of a convex solid it is clearly outside of.
+  void find_convex_solids();
+  // True when x is clearly behind occluder o of a convex solid it is clearly outside of.
   // outside_state caches per solid whether x is outside it (0 unknown, 1 yes, 2 no); touched lists
   // the solids set, for the caller to reset.
-  bool hidden_from(const Vec3& x, int f, std::vector<signed char>& outside_state, std::vector<int>& touched) const;
-  std::vector<Polygon> faces_;
-  std::vector<std::vector<int>> solids_;      // faces of each convex solid
-  std::vector<int> solid_of_;                 // per face: its convex solid, or -1
-  std::vector<std::vector<int>> neighbours_;  // per face and edge: the face across it, or -1
-  std::vector<Vec3> normals_;                 // unit plane normals
-  std::vector<Eigen::AlignedBox3d> boxes_;
-  std::vector<int> order_;   // face indices, leaf ranges point into it
-  std::vector<Node> nodes_;  // nodes_[0] is the root
+  bool hidden_from(const Vec3& x, int o, std::vector<signed char>& outside_state, std::vector<int>& touched) const;
+  std::vector<Polygon> scene_faces_;                // per scene face: its polygon
+  std::vector<Polygon> occluders_;                  // per occluder: its convex polygon
+  std::vector<std::vector<int>> occluder_faces_;    // per occluder: its scene faces
+  std::vector<std::vector<int>> occluder_corners_;  // per occluder: its corners as vertex ids (shared edges)
+  std::vector<int> occluder_of_face_;               // per scene face: its occluder
+  std::vector<std::vector<int>> solids_;            // occluders of each convex solid
+  std::vector<int> solid_of_;                       // per occluder: its convex solid, or -1
+  std::vector<std::vector<int>> neighbours_;        // per occluder and edge: the occluder across it, or -1
+  std::vector<Vec3> normals_;                       // per occluder: unit plane normal
+  std::vector<Eigen::AlignedBox3d> boxes_;          // per occluder
+  std::vector<int> order_;                          // occluder indices, leaf ranges point into it
+  std::vector<Node> nodes_;                         // nodes_[0] is the root
   double tol_ = 0.0;
 };
 
 // Shaft culling of one receiver (a patch or a point) against every patch of a mesh, in a
-// hierarchy (Haines & Wallace 1994 cull hierarchically the same way): scene face, then tiles of
-// at most tile_patches of the face's patches (each bounded by a rectangle in the face's plane, or a box
-// if the face is not flat), then the patch. A wider shaft contains the narrower ones below it,
-// so a level's candidate occluders are found among its parent's only: the face's by the BVH once
-// per receiver and face, a tile's once per receiver and tile, and each patch is tested against
-// its tile's list — usually empty. The result is ShaftCuller::occluders() of the pair or a
-// subset of it (a face outside one plane of a wider hull is left out even where no single plane
-// of the pair's hull separates it; for a point receiver, the back faces of convex solids it is
-// outside of, see ShaftCuller::drop_hidden_faces), never leaving out a face that can add to the
-// shadow.
+// hierarchy (Haines & Wallace 1994 cull hierarchically the same way): scene face (the patches'
+// Patch::face; ShaftCuller::scene_faces), then tiles of at most tile_patches of the face's
+// patches (each bounded by a rectangle in the face's plane, or a box if the face is not flat),
+// then the patch. A wider shaft contains the narrower ones below it, so a level's candidate
+// occluders are found among its parent's only: the face's by the BVH once per receiver and face,
+// a tile's once per receiver and tile, and each patch is tested against its tile's list —
+// usually empty. Lists hold occluder indices. The result is ShaftCuller::occluders() of the pair
+// or a subset of it (an occluder outside one plane of a wider hull is left out even where no
+// single plane of the pair's hull separates it; for a point receiver, the back occluders of
+// convex solids it is outside of, see ShaftCuller::drop_hidden_occluders), never leaving out an
+// occluder that can add to the shadow.
 // One per thread; not thread-safe.
 // Patches per tile: for a patch receiver's per-patch culling (each patch tests its tile's list),
 // and for PointVisibility, which clips a whole tile per point and settles most patches by
@@ -137,15 +169,15 @@ class GroupedShaftCuller {
   // The occluders of the shaft of the receiver and patch `patch` of the mesh (corners b, nb).
   void occluders(int patch, const Vec3* b, int nb, std::vector<int>& out);
 
-  // The tile of a patch (-1 for a patch of no scene face), and per tile: its corners (4 for a
-  // rectangle in a flat face's plane, containing its patches; 8 for a box) and the occluders of
-  // the receiver–tile shaft.
+  // The tile of a patch (-1 for a patch of no scene face), and per tile: its scene face, its
+  // corners (4 for a rectangle in a flat face's plane, containing its patches; 8 for a box) and
+  // the occluders of the receiver–tile shaft.
   int tile_of(int patch) const;
   const std::vector<int>& tile_of_patches() const { return tile_of_patch_; }  // tile_of for every patch
   int tile_corner_count(int tile) const { return tile_corner_counts_[size_t(tile)]; }
   int tile_face(int tile) const { return tiles_[size_t(tile)].face; }
   const Vec3* tile_corners(int tile) const { return tiles_[size_t(tile)].corners; }
-  const std::vector<int>& tile_occluders(int tile) { return group(culler_->face_count() + tile); }
+  const std::vector<int>& tile_occluders(int tile) { return group(culler_->scene_face_count() + tile); }
   int tile_count() const { return static_cast<int>(tiles_.size()); }
 
  private:
@@ -154,7 +186,8 @@ class GroupedShaftCuller {
     int corner_count = 0;  // 4 (a rectangle in the face's plane) or 8 (a box)
     Vec3 corners[8];
   };
-  // The candidates of group g (faces first, then tiles), computed on first need per receiver.
+  // The candidate occluders of group g (scene faces first, then tiles), computed on first need
+  // per receiver.
   const std::vector<int>& group(int g);
   const ShaftCuller* culler_;
   std::vector<Tile> tiles_;
@@ -169,20 +202,21 @@ class GroupedShaftCuller {
   std::vector<std::vector<int>> groups_;  // per group: occluders of the receiver–group shaft
 };
 
-// Exact visible form factor F(dA_x -> P minus the shadows of faces[which]), dimensionless in
+// Exact visible form factor F(dA_x -> P minus the shadows of occluders[which]), dimensionless in
 // [0, F(dA_x -> P)]. `source` has n >= 3 corners, convex, counter-clockwise from its front.
-// Occluders are two-sided; one seen edge-on from x (x in its plane, within 1e-12 of the scene
-// size) blocks nothing, and nothing on or in front of an occluder's plane (seen from x) is
-// hidden by it, so coplanar neighbours of the source do not shadow it.
-// `normals` (optional): the faces' unit plane normals (polygon_normal), so they are not recomputed.
-// `solids` (optional; the culler these faces and normals are from): the listed faces of a convex
-// solid x is clearly outside of cast one shadow volume, the solid's (the cone through its
-// silhouette, behind its front faces), rather than one each; the same set is hidden.
-double exact_visible_form_factor(const Receiver& receiver, const Vec3* source, int n, const std::vector<Polygon>& faces,
-                                 const std::vector<int>& which, const std::vector<Vec3>* normals = nullptr,
-                                 const ShaftCuller* solids = nullptr);
+// `occluders`: convex planar polygons (ShaftCuller::occluder_polygons, or any others, such as
+// scene faces). Occluders are two-sided; one seen edge-on from x (x in its plane, within 1e-12
+// of the scene size) blocks nothing, and nothing on or in front of an occluder's plane (seen from
+// x) is hidden by it, so coplanar neighbours of the source do not shadow it.
+// `normals` (optional): the occluders' unit plane normals (polygon_normal), so they are not recomputed.
+// `solids` (optional; the culler these occluders and normals are from): the listed occluders of a
+// convex solid x is clearly outside of cast one shadow volume, the solid's (the cone through its
+// silhouette, behind its front occluders), rather than one each; the same set is hidden.
+double exact_visible_form_factor(const Receiver& receiver, const Vec3* source, int n,
+                                 const std::vector<Polygon>& occluders, const std::vector<int>& which,
+                                 const std::vector<Vec3>* normals = nullptr, const ShaftCuller* solids = nullptr);
 
-// Ray-cast visibility with Embree 3 (see 2. above). Thread-safe after construction; results
+// Ray-cast visibility with Embree 3 (see 2. above), over the scene faces. Thread-safe after construction; results
 // depend only on (seed, pair), never on the thread count.
 class RayVisibility {
  public:
@@ -234,19 +268,19 @@ class Visibility;
 // face that is not flat), and ray mode, take Visibility::point_to_patch.
 //
 // A tile's occluders, in exact mode, come from one of two cullings that find the same shadows:
-//  - Tree: GroupedShaftCuller's hierarchy (scene face by the AABB tree, then tile).
-//  - Cones: once per point, every face but the back faces of convex solids x is outside of
-//    (ShaftCuller::drop_hidden_faces) and faces with every scene corner on one side of their
-//    plane (a room's walls) gets the cone from x that bounds it (axis and half-angle, the cone
-//    around the corners' directions, which bounds the convex polygon's spherical projection); a
-//    tile's candidates are the faces whose cone meets the tile's (angle between axes <= sum of
-//    half-angles), found first for its block of up to 8 neighbouring tiles, then ShaftCuller's
-//    shaft test of x and the tile. O(faces) per block and point, with no tree walk: the faster
-//    for scenes of few faces (furnished rooms).
-//  - Auto: Cones up to kConeCullingFaces scene faces, Tree above.
+//  - Tree: GroupedShaftCuller's hierarchy (scene face's occluders by the AABB tree, then tile).
+//  - Cones: once per point, every occluder but the back occluders of convex solids x is outside
+//    of (ShaftCuller::drop_hidden_occluders) and occluders with every scene corner on one side of
+//    their plane (a room's walls) gets the cone from x that bounds it (axis and half-angle, the
+//    cone around the corners' directions, which bounds the convex polygon's spherical
+//    projection); a tile's candidates are the occluders whose cone meets the tile's (angle between
+//    axes <= sum of half-angles), found first for its block of up to 8 neighbouring tiles, then
+//    ShaftCuller's shaft test of x and the tile. O(occluders) per block and point, with no tree
+//    walk: the faster for scenes of few occluders (furnished rooms).
+//  - Auto: Cones up to kConeCullingOccluders occluders, Tree above.
 // One per thread; not thread-safe.
 enum class PointCulling { Auto, Cones, Tree };
-constexpr int kConeCullingFaces = 1024;
+constexpr int kConeCullingOccluders = 1024;
 
 class PointVisibility {
  public:
@@ -260,7 +294,7 @@ class PointVisibility {
   // the previous one (another normal, as at a crease) reuses them: give such receivers in a row.
   void set_receiver(const Receiver& x);
   // F_vis(dA_x -> P) for patch `patch` of the mesh (corners b, nb; unit normal), given
-  // `unoccluded` = F(dA_x -> P). `unshadowed` is set when no face shadows any of it (the
+  // `unoccluded` = F(dA_x -> P). `unshadowed` is set when no occluder shadows any of it (the
   // result is then `unoccluded` itself). Ray mode casts `rays` segments seeded by `stream`
   // (added to rays_cast); exact mode ignores both.
   double visible(int patch, const Vec3* b, int nb, const Vec3& normal, double unoccluded, int rays, uint64_t stream,
@@ -291,7 +325,7 @@ class PointVisibility {
   // point view factors (formfactors/point_factors.h). rays, stream, rays_cast: as visible().
   struct VisibleFactor {
     double value = 0.0;       // F_vis(dA_x -> P)
-    bool unshadowed = false;  // no face shadows any of the patch: value == unoccluded
+    bool unshadowed = false;  // no occluder shadows any of the patch: value == unoccluded
     bool by_tile = false;     // settled by the patch's tile alone (its corners were not read)
   };
   VisibleFactor visible_factor(int patch, double unoccluded, int rays, uint64_t stream, long long& rays_cast) {

@@ -1,8 +1,10 @@
 // Pieces the visibility files share (visibility.h is the public interface; one .cpp per job):
 //   rays.cpp             ray casting with Embree 3 (RayVisibility, pair_stream)
-//   shaft_culler.cpp     the shaft test and the AABB tree of scene faces (ShaftCuller)
-//   convex_solids.cpp    convex solids among the faces, and convex enclosures
-//                        (ShaftCuller::find_convex_solids / drop_hidden_faces,
+//   occluders.cpp        occluders: coplanar scene faces merged into convex polygons
+//                        (merge_coplanar_faces)
+//   shaft_culler.cpp     the shaft test and the AABB tree of occluders (ShaftCuller)
+//   convex_solids.cpp    convex solids among the occluders, and convex enclosures
+//                        (ShaftCuller::find_convex_solids / drop_hidden_occluders,
 //                        scene_needs_no_visibility)
 //   tiles.cpp            tiles of a mesh's patches and their shafts (GroupedShaftCuller)
 //   shadow_clipping.cpp  exact visibility: polygons clipped against shadow volumes
@@ -18,6 +20,22 @@
 #include "visibility/visibility.h"
 
 namespace photometria::visibility_detail {
+
+// ShaftCuller's occluders (visibility.h): scene faces merged into convex polygons, in the order
+// of their first faces (with nothing to merge, occluder f is face f).
+struct MergedOccluders {
+  std::vector<std::vector<int>> faces;    // per occluder: its scene faces, ascending
+  std::vector<std::vector<int>> corners;  // per occluder: its corners, counter-clockwise, as scene
+                                          // vertex indices
+};
+// Coplanar scene faces (unit normals within 1e-9 rad, plane offsets within tol, metres) of one
+// orientation that share edges (the same two scene vertices: load_scene welds corners within
+// about tol) are merged into their union where it is
+// one convex polygon without holes (one boundary loop, convex once collinear corners are
+// removed, of the faces' summed area within 1e-9 relative); a group whose union is not convex
+// is split into convex pieces by merging neighbouring pieces while their union is convex. The
+// occluders cover exactly the points the faces cover.
+MergedOccluders merge_coplanar_faces(const Scene& scene, double tol);
 
 // Eigen's AlignedBox::intersects, inlined: it is called tens of millions of times per fill.
 inline bool boxes_meet(const Eigen::AlignedBox3d& a, const Eigen::AlignedBox3d& b) {

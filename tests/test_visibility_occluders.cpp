@@ -1,0 +1,224 @@
+// Occluders from surfaces, not faces (visibility.h, ShaftCuller): coplanar, edge-connected faces
+// merged into convex polygons that cover exactly what the faces cover, and exact visibility
+// through them equal to exact visibility through the faces.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <map>
+#include <numeric>
+#include <tuple>
+
+#include "kernels/lambert.h"
+#include "scene_builders.h"
+#include "validation/bench.h"
+#include "visibility/visibility.h"
+
+using namespace photometria;
+
+namespace {
+
+// Appends a grid of n × m quads in the plane z = h (corner (x0, y0), cell size dx × dy), facing
+// +z (or −z with `down`), sharing their vertices; cells where skip(i, j) are left out.
+template <class Skip>
+void add_grid(Scene& s, double x0, double y0, double dx, double dy, int n, int m, double h, bool down, Skip skip) {
+  std::map<std::pair<int, int>, int> id;
+  auto vertex = [&](int i, int j) {
+    const auto [it, fresh] = id.emplace(std::make_pair(i, j), static_cast<int>(s.vertices.size()));
+    if (fresh) s.vertices.emplace_back(x0 + i * dx, y0 + j * dy, h);
+    return it->second;
+  };
+  for (int j = 0; j < m; ++j)
+    for (int i = 0; i < n; ++i) {
+      if (skip(i, j)) continue;
+      std::vector<int> v = {vertex(i, j), vertex(i + 1, j), vertex(i + 1, j + 1), vertex(i, j + 1)};
+      if (down) std::reverse(v.begin(), v.end());
+      s.faces.push_back({v, 0, 0, static_cast<int>(s.faces.size())});
+    }
+}
+
+// Appends the box [lo, hi] with outward faces, each side meshed into m × m quads sharing vertices.
+void add_meshed_box(Scene& s, const Vec3& lo, const Vec3& hi, int m) {
+  std::map<std::tuple<int, int, int>, int> id;
+  auto vertex = [&](int i, int j, int k) {
+    const auto [it, fresh] = id.emplace(std::make_tuple(i, j, k), static_cast<int>(s.vertices.size()));
+    if (fresh) {
+      const Vec3 t(i, j, k);
+      s.vertices.push_back(lo + (hi - lo).cwiseProduct(t / m));
+    }
+    return it->second;
+  };
+  for (int a = 0; a < 3; ++a)
+    for (int side = 0; side < 2; ++side) {
+      const int u = (a + 1) % 3, v = (a + 2) % 3;  // u × v = a
+      for (int p = 0; p < m; ++p)
+        for (int q = 0; q < m; ++q) {
+          std::vector<int> c;
+          for (const auto& [du, dv] : {std::pair{0, 0}, {1, 0}, {1, 1}, {0, 1}}) {
+            int l[3];
+            l[a] = side * m;
+            l[u] = p + du;
+            l[v] = q + dv;
+            c.push_back(vertex(l[0], l[1], l[2]));
+          }
+          if (side == 0) std::reverse(c.begin(), c.end());  // facing −a
+          s.faces.push_back({c, 0, 0, static_cast<int>(s.faces.size())});
+        }
+    }
+}
+
+Scene empty_scene() {
+  Scene s;
+  s.source = "test";
+  s.materials = {Material{}};
+  s.groups = {"test"};
+  return s;
+}
+
+// True when y lies strictly inside convex polygon p (counter-clockwise around its normal n).
+bool inside(const Polygon& p, const Vec3& n, const Vec3& y) {
+  for (size_t k = 0; k < p.size(); ++k)
+    if (!(n.dot((p[(k + 1) % p.size()] - p[k]).cross(y - p[k])) > 1e-12)) return false;
+  return true;
+}
+
+std::vector<int> all(int n) {
+  std::vector<int> w(static_cast<size_t>(n));
+  std::iota(w.begin(), w.end(), 0);
+  return w;
+}
+
+}  // namespace
+
+TEST(VisibilityOccluders, AWallOfQuadsIsOneOccluder) {
+  for (bool down : {false, true}) {
+    Scene s = empty_scene();
+    add_grid(s, 0.0, 0.0, 0.1, 0.2, 12, 7, 1.0, down, [](int, int) { return false; });
+    const ShaftCuller culler(s);
+    ASSERT_EQ(culler.scene_face_count(), 84);
+    ASSERT_EQ(culler.occluder_count(), 1);
+    const Polygon& w = culler.occluder_polygons()[0];
+    EXPECT_EQ(w.size(), 4u);  // the straight corners along its edges removed
+    EXPECT_NEAR(polygon_area(w), 1.2 * 1.4, 1e-12);
+    EXPECT_NEAR(culler.occluder_normals()[0].z(), down ? -1.0 : 1.0, 1e-15);
+    EXPECT_EQ(culler.occluder_faces(0), all(84));
+    for (int f = 0; f < 84; ++f) EXPECT_EQ(culler.occluder_of_face(f), 0);
+    EXPECT_EQ(culler.scene_faces()[5], s.face_polygon(5));
+  }
+  // The same quads with a vertex each of their own (a scene not welded, as load_scene would):
+  // no edge is shared, nothing is merged.
+  Scene s = empty_scene();
+  for (int j = 0; j < 5; ++j)
+    for (int i = 0; i < 5; ++i) {
+      const int b = static_cast<int>(s.vertices.size());
+      s.vertices.push_back(Vec3(i, j, 0.0) * 0.2);
+      s.vertices.push_back(Vec3(i + 1, j, 0.0) * 0.2);
+      s.vertices.push_back(Vec3(i + 1, j + 1, 0.0) * 0.2);
+      s.vertices.push_back(Vec3(i, j + 1, 0.0) * 0.2);
+      s.faces.push_back({{b, b + 1, b + 2, b + 3}, 0, 0, static_cast<int>(s.faces.size())});
+    }
+  EXPECT_EQ(ShaftCuller(s).occluder_count(), 25);
+}
+
+TEST(VisibilityOccluders, FacesOfAnotherPlaneOrOrientationStayApart) {
+  Scene s = empty_scene();
+  add_grid(s, 0.0, 0.0, 0.5, 0.5, 2, 1, 0.0, false, [](int, int) { return false; });
+  add_grid(s, 1.0, 0.0, 0.5, 0.5, 1, 1, 0.0, true, [](int, int) { return false; });    // facing down
+  add_grid(s, 0.0, 0.5, 0.5, 0.5, 1, 1, 1e-3, false, [](int, int) { return false; });  // 1 mm above
+  const ShaftCuller culler(s);
+  EXPECT_EQ(culler.occluder_count(), 3);
+  EXPECT_EQ(culler.occluder_faces(0), (std::vector<int>{0, 1}));
+  EXPECT_EQ(culler.occluder_polygons()[1], s.face_polygon(2));  // alone: the face itself
+}
+
+TEST(VisibilityOccluders, AMeshedBoxIsSixOccludersAndOneConvexSolid) {
+  Scene s = empty_scene();
+  add_meshed_box(s, Vec3(0.2, 0.3, 0.0), Vec3(0.5, 0.4, 0.7), 4);
+  const ShaftCuller culler(s);
+  ASSERT_EQ(culler.scene_face_count(), 96);
+  ASSERT_EQ(culler.occluder_count(), 6);
+  for (const Polygon& w : culler.occluder_polygons()) EXPECT_EQ(w.size(), 4u);
+  EXPECT_EQ(culler.convex_solid_count(), 1);
+  EXPECT_EQ(culler.solid_occluders(0), all(6));
+  for (int o = 0; o < 6; ++o)
+    for (int k = 0; k < 4; ++k) EXPECT_GE(culler.neighbour(o, k), 0);
+  // The same box of 6 faces is the same solid.
+  Scene plain = empty_scene();
+  builders::add_box(plain, Vec3(0.2, 0.3, 0.0), Vec3(0.5, 0.4, 0.7));
+  EXPECT_EQ(ShaftCuller(plain).convex_solid_count(), 1);
+}
+
+TEST(VisibilityOccluders, AnLShapedGroupIsSplitIntoConvexPiecesCoveringTheSameArea) {
+  Scene s = empty_scene();
+  // 4 × 4 quads of 0.25 m without the 2 × 2 in the corner (x, y > 0.5): an L of 12 quads.
+  auto notch = [](int i, int j) { return i >= 2 && j >= 2; };
+  add_grid(s, 0.0, 0.0, 0.25, 0.25, 4, 4, 0.5, false, notch);
+  const ShaftCuller culler(s);
+  ASSERT_EQ(culler.scene_face_count(), 12);
+  EXPECT_GE(culler.occluder_count(), 2);
+  EXPECT_LE(culler.occluder_count(), 3);
+  double area = 0.0;
+  for (int o = 0; o < culler.occluder_count(); ++o) {
+    const Polygon& w = culler.occluder_polygons()[size_t(o)];
+    EXPECT_TRUE(is_convex(w)) << o;
+    area += polygon_area(w);
+    for (int f : culler.occluder_faces(o)) EXPECT_EQ(culler.occluder_of_face(f), o);
+  }
+  EXPECT_NEAR(area, 12 * 0.0625, 1e-14);
+  // Points off the quads' edges: inside exactly one occluder when in the L, else in none.
+  for (int j = 0; j < 40; ++j)
+    for (int i = 0; i < 40; ++i) {
+      const Vec3 y((i + 0.5) / 40.0 * 1.1 - 0.05, (j + 0.5) / 40.0 * 1.1 - 0.05, 0.5);
+      const bool in_l = y.x() > 0 && y.x() < 1 && y.y() > 0 && y.y() < 1 && !(y.x() > 0.5 && y.y() > 0.5);
+      int count = 0;
+      for (const Polygon& w : culler.occluder_polygons()) count += inside(w, Vec3::UnitZ(), y);
+      EXPECT_EQ(count, in_l ? 1 : 0) << y.transpose();
+    }
+  // A ring (a plate with a hole) is split too, and keeps its hole.
+  Scene ring = empty_scene();
+  add_grid(ring, 0.0, 0.0, 0.25, 0.25, 4, 4, 0.5, false, [](int i, int j) { return i == 1 && j == 2; });
+  const ShaftCuller rc(ring);
+  EXPECT_GE(rc.occluder_count(), 2);
+  double ring_area = 0.0;
+  for (const Polygon& w : rc.occluder_polygons()) {
+    EXPECT_TRUE(is_convex(w));
+    ring_area += polygon_area(w);
+    EXPECT_FALSE(inside(w, Vec3::UnitZ(), Vec3(0.375, 0.625, 0.5)));  // the hole's centre
+  }
+  EXPECT_NEAR(ring_area, 15 * 0.0625, 1e-14);
+}
+
+TEST(VisibilityOccluders, ExactFactorsThroughMergedOccludersEqualThoseThroughTheFaces) {
+  Scene s = empty_scene();
+  // A plate of 6 × 5 quads, an L of quads and a meshed box between a floor receiver and a source above.
+  add_grid(s, -0.6, -0.4, 0.1, 0.1, 6, 5, 0.8, false, [](int, int) { return false; });
+  add_grid(s, 0.1, -0.5, 0.15, 0.15, 4, 4, 1.1, true, [](int i, int j) { return i < 2 && j >= 2; });
+  add_meshed_box(s, Vec3(-0.3, 0.3, 0.3), Vec3(0.0, 0.6, 0.6), 3);
+  const ShaftCuller culler(s);
+  EXPECT_LT(culler.occluder_count(), 12);
+  EXPECT_EQ(culler.convex_solid_count(), 1);
+  const std::vector<int> occluders = all(culler.occluder_count()), faces = all(culler.scene_face_count());
+  const Polygon source = {{-1.0, -1.0, 1.6}, {-1.0, 1.0, 1.6}, {1.0, 1.0, 1.6}, {1.0, -1.0, 1.6}};  // facing down
+  int shadowed = 0;
+  for (int j = 0; j < 9; ++j)
+    for (int i = 0; i < 9; ++i) {
+      const Receiver x{Vec3(-1.0 + i * 0.25, -1.0 + j * 0.25, 0.0), Vec3::UnitZ()};
+      const double by_faces = exact_visible_form_factor(x, source.data(), 4, culler.scene_faces(), faces);
+      const double merged = exact_visible_form_factor(x, source.data(), 4, culler.occluder_polygons(), occluders);
+      const double with_solids = exact_visible_form_factor(x, source.data(), 4, culler.occluder_polygons(), occluders,
+                                                           &culler.occluder_normals(), &culler);
+      EXPECT_NEAR(merged, by_faces, 1e-12 * lambert_form_factor(x, source.data(), 4)) << i << " " << j;
+      EXPECT_NEAR(with_solids, by_faces, 1e-12 * lambert_form_factor(x, source.data(), 4)) << i << " " << j;
+      shadowed += by_faces < lambert_form_factor(x, source.data(), 4) - 1e-9;
+    }
+  EXPECT_GT(shadowed, 40);
+}
+
+TEST(VisibilityOccluders, ScenesOfBigFacesKeepOneOccluderPerFace) {
+  const Scene room = validation::bench_room_scene();
+  const ShaftCuller culler(room);
+  ASSERT_EQ(culler.occluder_count(), culler.scene_face_count());
+  for (int f = 0; f < culler.scene_face_count(); ++f) {
+    EXPECT_EQ(culler.occluder_of_face(f), f);
+    EXPECT_EQ(culler.occluder_polygons()[size_t(f)], room.face_polygon(f));
+  }
+}
