@@ -56,6 +56,13 @@ int patch_of_face(const PatchMesh& mesh, int face) {
   return -1;
 }
 
+// F(leg face x = 0.05 -> floor patch) of the scene, filled with exact visibility.
+double leg_to_floor(const Scene& scene) {
+  PatchMesh mesh;
+  const FormFactors F = fill_exact(scene, mesh);
+  return F(patch_of_face(mesh, 5), patch_of_face(mesh, 0));
+}
+
 TEST(ContactPairs, LegFaceToTheFloorPatchItStandsOn) {
   PatchMesh mesh;
   const FormFactors F = fill_exact(floor_with_leg(), mesh);
@@ -74,11 +81,8 @@ TEST(ContactPairs, ThirdFaceBehindTheLegFaceChangesNothing) {
   // of the whole pair but not between the parts that exchange light.
   Scene s = floor_with_leg();
   builders::add_box(s, {0.13, 0.02, 0.0}, {0.17, 0.18, 0.1});
-  PatchMesh mesh;
-  const FormFactors F = fill_exact(s, mesh);
-  const int leg = patch_of_face(mesh, 5), floor = patch_of_face(mesh, 0);
   const double exact = exact_leg_to_floor();
-  EXPECT_NEAR(F(leg, floor), exact, 1e-7 * exact);
+  EXPECT_NEAR(leg_to_floor(s), exact, 1e-7 * exact);
 }
 
 TEST(ContactPairs, ThirdFaceInFrontStillBlocks) {
@@ -86,11 +90,9 @@ TEST(ContactPairs, ThirdFaceInFrontStillBlocks) {
   // hides part of the strip: the factor must drop below the unblocked one.
   Scene s = floor_with_leg();
   builders::add_box(s, {0.02, 0.0, 0.0}, {0.025, 0.2, 0.05});
-  PatchMesh mesh;
-  const FormFactors F = fill_exact(s, mesh);
-  const int leg = patch_of_face(mesh, 5), floor = patch_of_face(mesh, 0);
-  EXPECT_LT(F(leg, floor), 0.99 * exact_leg_to_floor());
-  EXPECT_GT(F(leg, floor), 0.0);
+  const double f = leg_to_floor(s);
+  EXPECT_LT(f, 0.99 * exact_leg_to_floor());
+  EXPECT_GT(f, 0.0);
 }
 
 }  // namespace
