@@ -23,7 +23,7 @@ namespace {
 struct ViewFactorArgs {
   std::string scene, output, by = "group", format = "csv", enforce = "none", visibility = "auto", points, points_output,
                              max_memory, matrix = "auto", matrix_precision = "auto";
-  double threshold = 0.0, max_edge = 0.0, accuracy = 1e-7;
+  double threshold = 0.0, max_edge = 0.0, accuracy = 1e-7, occluded_accuracy = 0.0;
   int rays = 576, threads = 0;
   bool json = false, flip_normals = false, quiet = false;
 };
@@ -42,6 +42,7 @@ pm::ViewFactorJob job_of(const ViewFactorArgs& a) {
   opt.visibility = pm::parse_visibility_mode(a.visibility);
   // The numeric options are range-checked when parsed (options.h).
   opt.accuracy = a.accuracy;
+  opt.occluded_accuracy = a.occluded_accuracy;
   opt.patching.max_edge = a.max_edge;
   opt.rays = a.rays;
   opt.threads = a.threads;
@@ -96,6 +97,10 @@ Command add_viewfactors_command(CLI::App& app) {
       ->check(options::real_in(0, options::kInf));
   sub->add_option("--accuracy", a->accuracy, "Per-pair relative tolerance for unblocked pairs (default 1e-7)")
       ->check(options::real_in(0, 1, true, true));
+  sub->add_option("--occluded-accuracy", a->occluded_accuracy,
+                  "Relative tolerance for pairs with occluders in their shaft, integrated adaptively with exact "
+                  "visibility (default 0: the fixed --quadrature rule)")
+      ->check(options::real_in(0, 1, false, true));
   sub->add_option("--visibility", a->visibility, "auto (default), none, rays or exact");
   sub->add_option("--rays", a->rays, "Rays per (point, patch) in ray visibility (default 576)")
       ->check(options::integer_in(1, 1 << 24));

@@ -364,3 +364,27 @@ TEST(CliViewFactors, ThreadCountDoesNotChangeTheMatrix) {
   EXPECT_EQ(ta, tb);
   EXPECT_EQ(run("viewfactors " + cube + " --threads x -o " + one.string()).exit_code, 1);
 }
+
+// --occluded-accuracy integrates the pairs with something in their shaft adaptively: the summary
+// counts them, their receiver points and their error estimate; 0 is off, 1 is refused.
+TEST(CliViewFactors, OccludedAccuracyIntegratesOccludedPairsAdaptively) {
+  const std::string room = std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/room_with_table.obj";
+  const fs::path fixed = scratch() / "fixed.csv", adaptive = scratch() / "adaptive.csv";
+  CliRun r = run("viewfactors " + room + " --by face --visibility exact -o " + fixed.string() + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json f = nlohmann::json::parse(r.out);
+  EXPECT_GT(f["pairs"]["fixed_rule"].get<long long>(), 0);
+  EXPECT_EQ(f["pairs"]["occluded_adaptive"].get<long long>(), 0);
+  r = run("viewfactors " + room + " --by face --visibility exact --occluded-accuracy 1e-5 -o " + adaptive.string() +
+          " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json a = nlohmann::json::parse(r.out);
+  EXPECT_EQ(a["occluded_accuracy"].get<double>(), 1e-5);
+  EXPECT_EQ(a["pairs"]["fixed_rule"].get<long long>(), 0);
+  EXPECT_EQ(a["pairs"]["occluded_adaptive"].get<long long>(), f["pairs"]["fixed_rule"].get<long long>());
+  EXPECT_GT(a["pairs"]["occluded_evaluations"].get<long long>(), 0);
+  EXPECT_TRUE(a["pairs"]["row_error_estimate_max"].is_number());
+  r = run("viewfactors " + room + " --occluded-accuracy 1 -o " + adaptive.string());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("--occluded-accuracy"), std::string::npos) << r.err;
+}

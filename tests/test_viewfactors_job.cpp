@@ -60,6 +60,7 @@ std::string write_points(const fs::path& dir) {
 }
 
 const std::set<std::string> kAlwaysKeys = {"scene",
+                                           "occluded_accuracy",
                                            "output",
                                            "format",
                                            "level",

@@ -8,6 +8,7 @@
 
 #include "formfactors/aligned_rectangles.h"
 #include "formfactors/facing.h"
+#include "formfactors/occluded_pair.h"
 #include "formfactors/pair_integration.h"
 #include "formfactors/quadrature.h"
 #include "kernels/lambert.h"
@@ -35,11 +36,16 @@ PolygonBatch patch_batch(const PatchMesh& mesh) {
 
 namespace {
 
+// Occluded pairs are integrated to occluded_tolerance × max(F_ij, kOccludedFloor) absolute: relative
+// for pairs that matter, and no effort spent resolving the last digits of negligible ones.
+constexpr double kOccludedFloor = 1e-4;
+
 // The fill's counts (FillStats): pairs by what became of them, rays and kernel evaluations. One
 // set per thread, added up after the rows (integers: the order of the sums does not matter).
 struct FillCounts {
   long long evaluated = 0, backfacing = 0, tested = 0, culled = 0, occluded = 0, rays = 0, above = 0, rescaled = 0;
   long long fixed_rule = 0, gauss = 0, adaptive = 0, kernels = 0, exact_rectangles = 0;
+  long long occluded_adaptive = 0, occluded_evaluations = 0, occluded_budget = 0;
 
   void merge(const FillCounts& o) {
     evaluated += o.evaluated;
@@ -55,6 +61,9 @@ struct FillCounts {
     adaptive += o.adaptive;
     kernels += o.kernels;
     exact_rectangles += o.exact_rectangles;
+    occluded_adaptive += o.occluded_adaptive;
+    occluded_evaluations += o.occluded_evaluations;
+    occluded_budget += o.occluded_budget;
   }
 };
 
@@ -81,9 +90,9 @@ struct FillSetup {
 class RowFill {
  public:
   // grouped, point_visibility: the thread's (null without visibility); row: n entries, zero.
-  RowFill(const FillSetup& setup, int i, GroupedShaftCuller* grouped, PointVisibility* point_visibility, double* row,
-          FillCounts& counts)
-      : s_(setup), i_(i), pi_(setup.mesh.patches[i]), grouped_(grouped), row_(row), k_(counts) {
+  RowFill(const FillSetup& setup, int i, GroupedShaftCuller* grouped, PointVisibility* point_visibility,
+          OccludedPairIntegrator* occluded, double* row, FillCounts& counts)
+      : s_(setup), i_(i), pi_(setup.mesh.patches[i]), grouped_(grouped), occluded_(occluded), row_(row), k_(counts) {
     s_.mesh.polygon(i, ri_);
     rule_ = patch_quadrature(ri_, pi_.corner_count, s_.options.quadrature);
     nq_ = static_cast<int>(rule_.size());
@@ -111,6 +120,8 @@ class RowFill {
   // A receiver point sees at most its hemisphere: Σ_j F_vis(x_q -> P_j) <= 1. Scale the
   // ray-estimated terms of a point whose sum exceeds that (see the header). Raises
   // max_point_sum to the row's largest point sum.
+  double row_error() const { return row_error_; }
+
   void rescale_rays(double& max_point_sum) {
     for (int q = 0; q < nq_; ++q) {
       max_point_sum = std::max(max_point_sum, point_sum_[q]);
@@ -166,18 +177,46 @@ class RowFill {
         shaft_known = true;
       }
       if (!s_.vis || occluders_.empty()) {
-        unblocked(j, analytic, area_factor);
+        k_.culled += s_.vis != nullptr;
+        store_for_every_point(j, unoccluded_pair(j, analytic, area_factor));
+        return;
+      }
+      if (occluded_) {
+        occluded_pair(j, analytic, area_factor);
         return;
       }
     }
     fixed_rule(j, shaft_known);
   }
 
-  // Per-pair mode, a pair nothing can block: the closed form of aligned rectangles, else the
-  // per-pair rule to the requested accuracy. Its value stands in for each receiver point's.
-  void unblocked(int j, bool analytic, double area_factor) {
+  // Per-pair mode: the pair's value stands in for each receiver point's.
+  void store_for_every_point(int j, double f) {
+    ++k_.evaluated;
+    row_[j] = f;
+    for (int q = 0; q < nq_; ++q) point_sum_[q] += f;
+  }
+
+  // Per-pair mode, exact visibility, occluders in the pair's shaft: the unoccluded factor less
+  // the blocked part, integrated adaptively to the requested accuracy (occluded_pair.h).
+  void occluded_pair(int j, bool analytic, double area_factor) {
     const Patch& pj = s_.mesh.patches[j];
-    k_.culled += s_.vis != nullptr;
+    const double f0 = unoccluded_pair(j, analytic, area_factor);
+    const OccludedPair pair{ri_, pi_.corner_count, pi_.normal, pi_.area,      &receiver_part_,
+                            sj_, pj.corner_count,  pj.normal,  &source_part_, &occluders_};
+    const double tolerance = s_.options.occluded_tolerance * std::max(f0, kOccludedFloor);
+    const OccludedPairResult r = occluded_->integrate(pair, f0, tolerance, s_.options.occluded_budget);
+    ++k_.occluded_adaptive;
+    k_.occluded_evaluations += r.evaluations;
+    k_.occluded_budget += r.budget_exhausted;
+    if (r.form_factor == 0.0) ++k_.occluded;
+    row_error_ += r.error;
+    store_for_every_point(j, r.form_factor);
+  }
+
+  // Per-pair mode, the factor with nothing in the way: the closed form of aligned rectangles,
+  // else the per-pair rule to the requested accuracy.
+  double unoccluded_pair(int j, bool analytic, double area_factor) {
+    const Patch& pj = s_.mesh.patches[j];
     double f;
     if (analytic) {
       f = area_factor / pi_.area;
@@ -190,9 +229,7 @@ class RowFill {
       k_.gauss += r.rule == PairRule::Gauss;
       k_.adaptive += r.rule == PairRule::Adaptive;
     }
-    ++k_.evaluated;
-    row_[j] = f;
-    for (int q = 0; q < nq_; ++q) point_sum_[q] += f;  // the pair's value stands in for each point's
+    return f;
   }
 
   // The fixed rule: Lambert's kernel at each receiver point (unoccluded_), then, with
@@ -290,15 +327,6 @@ class RowFill {
                                      int(source_part_.size()), candidates_, occluders_);
   }
 
-  // `out` = the part of polygon v[0..n) on the front closed side of the plane through `origin`
-  // with normal `normal`.
-  static void clip_to_halfspace_at(const Vec3* v, int n, const Vec3& origin, const Vec3& normal, Polygon& out) {
-    Polygon rel(v, v + n);
-    for (Vec3& p : rel) p -= origin;
-    clip_to_halfspace(rel.data(), n, normal, out);
-    for (Vec3& p : out) p += origin;
-  }
-
   // P_j's corners (sj_), fetched on first need per pair.
   Vec3* source(int j) {
     if (!have_sj_) s_.mesh.polygon(j, sj_);
@@ -346,6 +374,8 @@ class RowFill {
   Polygon receiver_part_, source_part_;  // narrow_to_exchanging_parts
   // Shaft culling in a hierarchy (face, tile, patch; visibility.h); one per thread, reused across rows.
   GroupedShaftCuller* grouped_;
+  OccludedPairIntegrator* occluded_;  // per-pair mode with exact visibility, else null
+  double row_error_ = 0.0;            // Σ_j of the occluded pairs' error estimates
   PointVisibility* from_point_ = nullptr;
   double* row_;
   std::vector<Facing> facing_;
@@ -385,12 +415,16 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
 
   std::vector<GroupedShaftCuller> grouped_cullers;
   std::vector<PointVisibility> point_visibility;  // one-point rules: visibility from the point (see RowFill)
+  std::vector<OccludedPairIntegrator> occluded;   // per-pair mode, exact visibility: occluded pairs
   if (vis) {
     grouped_cullers.assign(size_t(omp_get_max_threads()), GroupedShaftCuller(vis->culler(), mesh));
     for (int t = 0; t < omp_get_max_threads(); ++t) point_visibility.emplace_back(*vis, mesh);
+    if (per_pair && !rays_mode && options.occluded_tolerance > 0.0)
+      for (int t = 0; t < omp_get_max_threads(); ++t) occluded.emplace_back(*vis);
   }
+  double max_row_error = 0.0;
 
-#pragma omp parallel for schedule(dynamic, 4) reduction(merge : counts) reduction(max : max_point_sum)
+#pragma omp parallel for schedule(dynamic, 4) reduction(merge : counts) reduction(max : max_point_sum, max_row_error)
   for (int i = 0; i < n; ++i) {
     // F_i,·: written in place into a dense double matrix (zero until now), else into a buffer.
     std::vector<double> row_buffer;
@@ -401,9 +435,11 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
     }
     const int thread = omp_get_thread_num();
     RowFill fill(setup, i, vis ? &grouped_cullers[size_t(thread)] : nullptr,
-                 vis ? &point_visibility[size_t(thread)] : nullptr, row, counts);
+                 vis ? &point_visibility[size_t(thread)] : nullptr,
+                 occluded.empty() ? nullptr : &occluded[size_t(thread)], row, counts);
     fill.fill_pairs();
     fill.rescale_rays(max_point_sum);
+    max_row_error = std::max(max_row_error, fill.row_error());
     F.set_row(i, row);
     const int done = ++rows_done;
     if (options.progress && omp_get_thread_num() == 0) options.progress(double(done) / n);
@@ -432,6 +468,10 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
   stats.above_unoccluded += counts.above;
   stats.max_point_row_sum = std::max(stats.max_point_row_sum, max_point_sum);
   stats.points_rescaled += counts.rescaled;
+  stats.pairs_occluded_adaptive += counts.occluded_adaptive;
+  stats.occluded_evaluations += counts.occluded_evaluations;
+  stats.occluded_budget_exhausted += counts.occluded_budget;
+  stats.max_row_error_estimate = std::max(stats.max_row_error_estimate, max_row_error);
   return F;
 }
 

@@ -32,15 +32,21 @@
 namespace photometria {
 
 struct FillOptions {
-  int quadrature = 1;                      // receiver rule order (1 = centroid)
-  double tolerance = 0.0;                  // > 0: per-pair rule to this relative accuracy
-                                           // (formfactors/pair_integration.h) for pairs no
-                                           // face can block (an empty shaft), and the exact
-                                           // closed form for pairs of aligned rectangles
-                                           // (formfactors/aligned_rectangles.h); 0: the fixed
-                                           // `quadrature` rule for every pair
-  bool exact_rectangles = true;            // with tolerance > 0: use the rectangle closed form
-                                           // (false: the per-pair rule there too, for studies)
+  int quadrature = 1;            // receiver rule order (1 = centroid)
+  double tolerance = 0.0;        // > 0: per-pair rule to this relative accuracy
+                                 // (formfactors/pair_integration.h) for pairs no
+                                 // face can block (an empty shaft), and the exact
+                                 // closed form for pairs of aligned rectangles
+                                 // (formfactors/aligned_rectangles.h); 0: the fixed
+                                 // `quadrature` rule for every pair
+  bool exact_rectangles = true;  // with tolerance > 0: use the rectangle closed form
+                                 // (false: the per-pair rule there too, for studies)
+  // > 0 with tolerance > 0 and exact visibility: pairs with occluders in their shaft are
+  // integrated adaptively (formfactors/occluded_pair.h) to this relative accuracy (absolute
+  // floor: × 1e-4), each spending at most occluded_budget receiver points; 0: the fixed
+  // `quadrature` rule with exact visibility per point.
+  double occluded_tolerance = 0.0;
+  long long occluded_budget = 20000;
   const Visibility* visibility = nullptr;  // null: no occlusion test (every pair unoccluded)
   int rays = 576;                          // rays per (receiver point, source patch) in ray mode
   uint64_t seed = 1;                       // ray sampling seed (results repeat for a seed)
@@ -66,6 +72,10 @@ struct FillStats {
   long long pairs_adaptive = 0;          // per-pair rule: near or touching pairs, adaptive bisection
   long long pairs_exact_rectangles = 0;  // per-pair mode: aligned rectangles, closed form (exact)
   long long kernel_evaluations = 0;
+  long long pairs_occluded_adaptive = 0;    // occluded pairs integrated to occluded_tolerance
+  long long occluded_evaluations = 0;       // their receiver points (exact visible factor each)
+  long long occluded_budget_exhausted = 0;  // of those, stopped by the budget above the tolerance
+  double max_row_error_estimate = 0.0;      // max over rows of Σ_j the occluded pairs' error estimates
 };
 
 // The invariants of a filled matrix (checked in tests and reported in the summary).

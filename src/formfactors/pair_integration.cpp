@@ -5,31 +5,13 @@
 #include <vector>
 
 #include "formfactors/quadrature.h"
+#include "formfactors/receiver_cells.h"
 #include "kernels/lambert.h"
 
 namespace photometria {
 namespace {
 
-// A receiver cell: a triangle (Duffy map) or a quad (bilinear map) over the unit square.
-struct Cell {
-  Vec3 c[4];
-  int n;
-  // Position and area element at parameters (s, t).
-  Vec3 at(double s, double t, double* jac) const {
-    Vec3 ds, dt, p;
-    if (n == 4) {
-      p = (1 - s) * (1 - t) * c[0] + s * (1 - t) * c[1] + s * t * c[2] + (1 - s) * t * c[3];
-      ds = (1 - t) * (c[1] - c[0]) + t * (c[2] - c[3]);
-      dt = (1 - s) * (c[3] - c[0]) + s * (c[2] - c[1]);
-    } else {  // Duffy: c0 + s (c1 − c0) + s t (c2 − c1)
-      p = c[0] + s * (c[1] - c[0]) + s * t * (c[2] - c[1]);
-      ds = (c[1] - c[0]) + t * (c[2] - c[1]);
-      dt = s * (c[2] - c[1]);
-    }
-    *jac = ds.cross(dt).norm();
-    return p;
-  }
-};
+using Cell = ReceiverCell;
 
 struct Integrator {
   const Vec3& normal;
@@ -77,20 +59,6 @@ struct Integrator {
   }
 };
 
-// Cells covering a convex polygon: the polygon itself if it is a triangle or quad, else a fan.
-std::vector<Cell> cells_of(const Polygon& p) {
-  std::vector<Cell> cells;
-  if (p.size() == 3 || p.size() == 4) {
-    Cell c{};
-    c.n = static_cast<int>(p.size());
-    std::copy(p.begin(), p.end(), c.c);
-    cells.push_back(c);
-    return cells;
-  }
-  for (size_t k = 1; k + 1 < p.size(); ++k) cells.push_back(Cell{{p[0], p[k], p[k + 1], Vec3::Zero()}, 3});
-  return cells;
-}
-
 double bounding_radius(const Vec3* v, int n, const Vec3& centre) {
   double r = 0.0;
   for (int k = 0; k < n; ++k) r = std::max(r, (v[k] - centre).norm());
@@ -128,12 +96,12 @@ PairResult pair_form_factor(const Vec3* r, int rn, const Vec3& r_normal, const V
     const int n = std::clamp(static_cast<int>(std::ceil(std::log(10.0 / tolerance) / (2.0 * std::log(rho)))), 1, 16);
     std::vector<double> x, w;
     gauss_legendre_unit(n, x, w);
-    for (const Cell& c : cells_of(front)) integral += integ.box(c, 0, 1, 0, 1, x, w);
+    for (const Cell& c : receiver_cells(front)) integral += integ.box(c, 0, 1, 0, 1, x, w);
     result.rule = PairRule::Gauss;
     result.order = n;
   } else {
     // 3. Touching or near: adaptive. Absolute target from a first estimate of F.
-    const auto cells = cells_of(front);
+    const auto cells = receiver_cells(front);
     std::vector<double> first(cells.size());
     double estimate = 0.0;
     for (size_t k = 0; k < cells.size(); ++k)

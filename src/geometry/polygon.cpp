@@ -68,6 +68,14 @@ void clip_to_halfspace(const Vec3* in, int n, const Vec3& plane_normal, Polygon&
   }
 }
 
+void clip_to_halfspace_at(const Vec3* v, int n, const Vec3& origin, const Vec3& normal, Polygon& out) {
+  thread_local Polygon rel;
+  rel.assign(v, v + n);
+  for (Vec3& p : rel) p -= origin;
+  clip_to_halfspace(rel.data(), n, normal, out);
+  for (Vec3& p : out) p += origin;
+}
+
 namespace {
 // 2-D coordinates of the polygon in its own plane.
 std::vector<Eigen::Vector2d> project_to_plane(const Polygon& p, const Vec3& n) {

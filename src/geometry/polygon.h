@@ -37,6 +37,10 @@ double planarity_deviation(const Polygon& p);
 // Works on vectors relative to `origin` to keep digits when the polygon is far away.
 void clip_to_halfspace(const Vec3* in, int n, const Vec3& plane_normal, Polygon& out);
 
+// The same for the plane through `origin`: `out` = the part of v[0..n) on the closed side
+// {x : normal·(x − origin) >= 0}, in absolute coordinates.
+void clip_to_halfspace_at(const Vec3* v, int n, const Vec3& origin, const Vec3& normal, Polygon& out);
+
 // Splits a simple (possibly non-convex) polygon into triangles by ear clipping in its own
 // plane. Returns index triples into the polygon. Degenerate polygons give no triangles.
 std::vector<std::array<int, 3>> triangulate_polygon(const Polygon& p);

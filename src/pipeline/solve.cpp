@@ -223,7 +223,7 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
   fill_materials(scene, r);
   timer.lap("patching");
 
-  const VisibilityChoice visibility = choose_visibility(scene, opt.visibility);
+  const VisibilityChoice visibility = choose_visibility(scene, opt.visibility, opt.rays);
   s.visibility_mode = visibility.name();
   s.visibility_reason = visibility.reason;
   const std::unique_ptr<Visibility> vis = make_visibility(scene, visibility);

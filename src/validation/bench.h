@@ -53,8 +53,8 @@ std::vector<BenchBox> bench_room_furniture();
 // the ceiling facing down, E = 10 W/m², one-sided sheet), 2 "table", 3 "chairs" (closed
 // outward-facing boxes). Materials: wall ρ 0.7, floor ρ 0.5, light ρ 0.8 E 10, table ρ 0.5,
 // chair ρ 0.4. Faces in order: the room's six (z = 0, z = top, y = 0, x = top, y = top, x = 0),
-// the light, then six per box of bench_room_furniture() in its order. 181 faces: at most
-// kAutoExactMaxFaces, so visibility `auto` clips exactly.
+// the light, then six per box of bench_room_furniture() in its order. 181 faces, few occluders
+// per shaft: visibility `auto` clips exactly (visibility/choice.h).
 Scene bench_room_scene();
 // Patch edges (metres) of the three room sizes, giving N ≈ 1,500, 6,000 and 22,000.
 std::vector<double> bench_room_edges();  // {0.24, 0.112, 0.056}: 1,520, 6,088, 22,419 patches

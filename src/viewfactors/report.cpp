@@ -33,6 +33,7 @@ nlohmann::json viewfactor_summary_json(const ViewFactorJobResult& r) {
   j["patches"] = r.patches;
   j["faces"] = r.faces;
   j["accuracy"] = job.fill.accuracy;
+  j["occluded_accuracy"] = job.fill.occluded_accuracy;
   j["visibility"] = r.visibility_mode;
   j["visibility_reason"] = r.visibility_reason;
   j["checks"] = checks_json(r.checks, r.names);
@@ -57,6 +58,10 @@ nlohmann::json viewfactor_summary_json(const ViewFactorJobResult& r) {
                 {"visibility_tested", r.fill.pairs_tested},
                 {"visibility_culled", r.fill.pairs_culled},
                 {"occluded", r.fill.pairs_occluded},
+                {"occluded_adaptive", r.fill.pairs_occluded_adaptive},
+                {"occluded_evaluations", r.fill.occluded_evaluations},
+                {"occluded_budget_exhausted", r.fill.occluded_budget_exhausted},
+                {"row_error_estimate_max", r.fill.max_row_error_estimate},
                 {"rays_cast", r.fill.rays_cast},
                 {"kernel_evaluations", r.fill.kernel_evaluations}};
   j["enforce"] = enforcement_name(job.enforcement);
@@ -101,6 +106,10 @@ std::string viewfactor_summary_text(const ViewFactorJobResult& r) {
     << job.fill.quadrature << " (visibility), " << fill.pairs_backfacing << " facing away; " << fill.pairs_tested
     << " shaft-tested, " << fill.pairs_culled << " culled, " << fill.pairs_occluded << " fully occluded, "
     << fill.rays_cast << " rays\n";
+  if (fill.pairs_occluded_adaptive > 0)
+    o << "  occluded pairs: " << fill.pairs_occluded_adaptive << " adaptive to " << job.fill.occluded_accuracy << " ("
+      << fill.occluded_evaluations << " points, " << fill.occluded_budget_exhausted
+      << " stopped by the budget); estimated row error max " << fill.max_row_error_estimate << "\n";
   const EnforcementReport& rep = r.enforcement_report;
   if (job.enforcement != Enforcement::None)
     o << "  enforcement " << enforcement_name(job.enforcement) << ": reciprocity error " << rep.before.reciprocity_error

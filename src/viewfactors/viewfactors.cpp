@@ -61,13 +61,14 @@ PatchViewFactors compute_view_factors(const Scene& scene, const ViewFactorOption
   const StorageChoice storage = check_memory(estimate_memory(r.mesh, opt.seed), r.mesh.size(),
                                              make_aggregation(scene, r.mesh, opt.level).size(), opt, r.memory);
   // Visibility: the same decision as the solve's (visibility/choice.h).
-  const VisibilityChoice visibility = choose_visibility(scene, opt.visibility);
+  const VisibilityChoice visibility = choose_visibility(scene, opt.visibility, opt.rays);
   r.visibility_mode = visibility.name();
   r.visibility_reason = visibility.reason;
   r.visibility = make_visibility(scene, visibility);
   FillOptions fill;
   fill.quadrature = opt.quadrature;
   fill.tolerance = opt.accuracy;
+  fill.occluded_tolerance = opt.occluded_accuracy;
   fill.visibility = r.visibility.get();
   if (opt.progress) fill.progress = [&opt](double f) { opt.progress("form factors", f); };
   fill.rays = opt.rays;

@@ -4,8 +4,8 @@
 // compute_view_factors() runs load-independent stages of the solve pipeline (patching,
 // visibility, form-factor fill; see pipeline/solve.h and formfactors/formfactors.h) with
 // settings chosen for accuracy rather than speed: per-pair integration to a relative tolerance of
-// 1e-7 for pairs nothing can block, and visibility `auto` (none in a convex enclosure, exact
-// clipping up to kAutoExactMaxFaces faces, rays beyond).
+// 1e-7 for pairs nothing can block, and visibility `auto` (none in a convex enclosure, else the
+// cheaper of exact clipping and rays by visibility/choice.h's estimate).
 //
 // Aggregation (area-weighted, the definition of a view factor between unions of surfaces):
 //   F_IJ = (1 / A_I) Σ_{i∈I} A_i Σ_{j∈J} F_ij,   A_I = Σ_{i∈I} A_i
@@ -39,6 +39,9 @@ struct ViewFactorOptions {
   PatchingOptions patching;  // default: no subdivision beyond the input faces
   double accuracy = 1e-7;    // per-pair relative tolerance for pairs nothing can block
   int quadrature = 6;        // receiver rule order for pairs needing visibility
+  // > 0, with exact visibility: pairs with occluders in their shaft are integrated adaptively
+  // to this relative tolerance instead (formfactors/occluded_pair.h); 0: the fixed rule above.
+  double occluded_accuracy = 0.0;
   VisibilityMode visibility = VisibilityMode::Auto;
   int rays = 576;  // rays per (receiver point, patch) in ray mode
   uint64_t seed = 1;

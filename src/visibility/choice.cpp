@@ -1,5 +1,9 @@
 #include "visibility/choice.h"
 
+#include <algorithm>
+#include <sstream>
+#include <vector>
+
 #include "util/error.h"
 
 namespace photometria {
@@ -20,7 +24,42 @@ std::string VisibilityChoice::name() const {
   }
 }
 
-VisibilityChoice choose_visibility(const Scene& scene, VisibilityMode requested) {
+VisibilityCostEstimate estimate_visibility_cost(const Scene& scene, const ShaftCuller& culler, int rays, int samples) {
+  VisibilityCostEstimate e;
+  const std::vector<Polygon>& faces = culler.scene_faces();
+  const long long n = static_cast<long long>(faces.size());
+  std::vector<Vec3> normals(faces.size());
+  for (size_t f = 0; f < faces.size(); ++f) normals[f] = polygon_normal(faces[f]);
+  // True when some corner of b lies in front of a's plane.
+  const auto in_front = [&](size_t a, size_t b) {
+    for (const Vec3& v : faces[b])
+      if (normals[a].dot(v - faces[a][0]) > culler.tolerance()) return true;
+    return false;
+  };
+  std::vector<int> found;
+  long long occluders = 0;
+  // Pairs (a, b), a != b, visited with a stride coprime to n² so that the sample spreads over the scene.
+  const long long pairs = n * n;
+  const long long stride = pairs > 1 ? std::max(1LL, pairs / std::max(1, samples)) | 1 : 1;
+  for (long long k = 0, tried = 0; tried < std::min(pairs, 8LL * samples) && e.sampled_pairs < samples; ++tried) {
+    k = (k + stride) % std::max(1LL, pairs);
+    const size_t a = size_t(k / n), b = size_t(k % n);
+    if (a == b || faces[a].size() + faces[b].size() > 24 || !in_front(a, b) || !in_front(b, a)) continue;
+    ++e.sampled_pairs;
+    culler.occluders(faces[a].data(), int(faces[a].size()), faces[b].data(), int(faces[b].size()), found);
+    if (found.empty()) continue;
+    ++e.occluded_pairs;
+    occluders += static_cast<long long>(found.size());
+  }
+  (void)scene;
+  if (e.occluded_pairs > 0) e.mean_occluders = double(occluders) / e.occluded_pairs;
+  const double m = e.mean_occluders;
+  e.exact_seconds = kClipSecondsPerOccluder * m * (1.0 + m / 4.0);
+  e.rays_seconds = kSecondsPerRay * rays;
+  return e;
+}
+
+VisibilityChoice choose_visibility(const Scene& scene, VisibilityMode requested, int rays) {
   VisibilityChoice c;
   c.mode = requested;
   switch (requested) {
@@ -30,17 +69,22 @@ VisibilityChoice choose_visibility(const Scene& scene, VisibilityMode requested)
     case VisibilityMode::Auto: break;
   }
   std::string why;
-  const std::string faces = std::to_string(scene.faces.size()), limit = std::to_string(kAutoExactMaxFaces);
   if (scene_needs_no_visibility(scene, &why)) {
     c.mode = VisibilityMode::None;
     c.reason = "auto: " + why;
-  } else if (scene.faces.size() <= kAutoExactMaxFaces) {
-    c.mode = VisibilityMode::Exact;
-    c.reason = "auto: " + why + "; " + faces + " faces <= " + limit + ", so exact clipping";
-  } else {
-    c.mode = VisibilityMode::Rays;
-    c.reason = "auto: " + why + "; " + faces + " faces > " + limit + ", so rays";
+    return c;
   }
+  const ShaftCuller culler(scene);
+  const VisibilityCostEstimate e = estimate_visibility_cost(scene, culler, rays);
+  const bool exact = e.exact_seconds <= e.rays_seconds;
+  c.mode = exact ? VisibilityMode::Exact : VisibilityMode::Rays;
+  std::ostringstream o;
+  o.precision(2);
+  o << "auto: " << why << "; " << e.mean_occluders << " occluders per occluded shaft (" << e.occluded_pairs << " of "
+    << e.sampled_pairs << " sampled face pairs), so clipping costs about " << e.exact_seconds * 1e6
+    << " us per point against " << e.rays_seconds * 1e6 << " us for " << rays
+    << " rays: " << (exact ? "exact clipping" : "rays");
+  c.reason = o.str();
   return c;
 }
 

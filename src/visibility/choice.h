@@ -2,9 +2,10 @@
 // method computes what blocks light (none, rays or exact clipping), and why.
 //
 // Auto: none for a scene where nothing can block (visibility.h scene_needs_no_visibility: a
-// convex enclosure); exact for scenes of at most kAutoExactMaxFaces faces (few occluders per
-// shaft: clipping is exact and, on the shipped rooms, faster than rays at the default ray
-// count; docs/performance.md); rays beyond.
+// convex enclosure); otherwise the cheaper of exact clipping and rays by an estimate of their
+// cost per receiver point and occluded source (estimate_visibility_cost), from the occluders met
+// in the shafts of a sample of the scene's face pairs: clipping costs more the more occluders a
+// shaft holds (each cuts the visible fragments the next must clip), rays cost their count.
 #pragma once
 
 #include <cstddef>
@@ -17,7 +18,29 @@
 namespace photometria {
 
 enum class VisibilityMode { Auto, None, Rays, Exact };
-inline constexpr size_t kAutoExactMaxFaces = 256;
+
+// The cost model of `auto`, in seconds of one core per receiver point and occluded source:
+//   exact ≈ kClipSecondsPerOccluder × m (1 + m / 4),   rays ≈ kSecondsPerRay × rays
+// with m the mean count of candidate occluders (ShaftCuller::occluders) in the shafts of the
+// sampled face pairs that have any. Measured on the project's 2-core VM (docs/performance.md
+// "How auto chooses"): 1.7 µs per exactly clipped point on the 1,666-face room, whose shafts
+// hold 3.2 occluders on average, and 0.26 µs per ray on the same room.
+inline constexpr double kClipSecondsPerOccluder = 0.30e-6;
+inline constexpr double kSecondsPerRay = 0.26e-6;
+inline constexpr int kDefaultRays = 576;  // rays per (receiver point, source patch) unless asked otherwise
+
+struct VisibilityCostEstimate {
+  int sampled_pairs = 0;        // facing face pairs whose shafts were culled
+  int occluded_pairs = 0;       // of those, with a candidate occluder in the shaft
+  double mean_occluders = 0.0;  // m: candidates per shaft, over the occluded pairs
+  double exact_seconds = 0.0;   // per receiver point and occluded source, one core
+  double rays_seconds = 0.0;
+};
+
+// Samples up to `samples` pairs of facing scene faces (deterministic: a fixed stride through the
+// pairs) and culls their shafts with `culler`. `rays`: the ray count the run would use.
+VisibilityCostEstimate estimate_visibility_cost(const Scene& scene, const ShaftCuller& culler, int rays,
+                                                int samples = 512);
 
 // "auto", "none", "rays", "exact" -> the mode; throws Error(BadInput) naming --visibility and
 // the choices for anything else.
@@ -29,8 +52,8 @@ struct VisibilityChoice {
   std::string name() const;                    // "none", "rays" or "exact"
 };
 
-// The mode `requested` resolves to for `scene` (Auto decided as above).
-VisibilityChoice choose_visibility(const Scene& scene, VisibilityMode requested);
+// The mode `requested` resolves to for `scene` (Auto decided as above, for `rays` rays per point).
+VisibilityChoice choose_visibility(const Scene& scene, VisibilityMode requested, int rays = kDefaultRays);
 
 // The visibility object of a choice: null for None.
 std::unique_ptr<Visibility> make_visibility(const Scene& scene, const VisibilityChoice& choice);

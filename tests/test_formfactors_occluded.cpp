@@ -1,0 +1,150 @@
+// Occluded pairs integrated to a tolerance (formfactors/occluded_pair.h): against brute-force
+// receiver sums of the exact visible factor, and the row sums of a closed room with an object in it.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "formfactors/formfactors.h"
+#include "formfactors/occluded_pair.h"
+#include "formfactors/pair_integration.h"
+#include "kernels/lambert.h"
+#include "patching/patching.h"
+#include "scene_builders.h"
+#include "visibility/visibility.h"
+
+namespace {
+
+using namespace photometria;
+
+// Faces 0..5: the unit cube (inward), then the outward faces of a box inside it.
+Scene cube_with_box(const Vec3& lo, const Vec3& hi) {
+  Scene s = builders::unit_cube(0.5, 0.0);
+  builders::add_box(s, lo, hi);
+  return s;
+}
+
+struct Pair {
+  Vec3 r[4], s[4];
+  int rn, sn;
+  Vec3 rnormal, snormal;
+  double area;
+  Polygon rpart, spart;
+  std::vector<int> occluders;
+};
+
+Pair pair_of(const PatchMesh& mesh, const Visibility& vis, int i, int j) {
+  Pair p;
+  mesh.polygon(i, p.r);
+  mesh.polygon(j, p.s);
+  p.rn = mesh.patches[size_t(i)].corner_count;
+  p.sn = mesh.patches[size_t(j)].corner_count;
+  p.rnormal = mesh.patches[size_t(i)].normal;
+  p.snormal = mesh.patches[size_t(j)].normal;
+  p.area = mesh.patches[size_t(i)].area;
+  clip_to_halfspace_at(p.r, p.rn, p.s[0], p.snormal, p.rpart);
+  clip_to_halfspace_at(p.s, p.sn, p.r[0], p.rnormal, p.spart);
+  vis.culler().occluders(p.r, p.rn, p.s, p.sn, p.occluders);
+  return p;
+}
+
+double unoccluded(const Pair& p) {
+  return pair_form_factor(p.r, p.rn, p.rnormal, p.s, p.sn, p.snormal, 1e-12).form_factor;
+}
+
+OccludedPairResult integrate(const Visibility& vis, const Pair& p, double relative) {
+  OccludedPairIntegrator integrator(vis);
+  const OccludedPair pair{p.r, p.rn, p.rnormal, p.area, &p.rpart, p.s, p.sn, p.snormal, &p.spart, &p.occluders};
+  const double f0 = unoccluded(p);
+  return integrator.integrate(pair, f0, relative * f0, 2000000);
+}
+
+// The visible factor averaged over an n × n midpoint grid of a rectangular receiver (brute force).
+double brute_force(const Visibility& vis, const Pair& p, int n) {
+  double sum = 0.0;
+  long long rays = 0;
+  for (int a = 0; a < n; ++a)
+    for (int b = 0; b < n; ++b) {
+      const double u = (a + 0.5) / n, v = (b + 0.5) / n;
+      const Vec3 x = p.r[0] + u * (p.r[1] - p.r[0]) + v * (p.r[3] - p.r[0]);
+      const Receiver at{x, p.rnormal};
+      const double f0 = lambert_form_factor(at, p.s, p.sn);
+      sum += vis.point_to_patch(at, p.s, p.sn, p.snormal, f0, p.occluders, 0, 0, rays);
+    }
+  return sum / (double(n) * n);
+}
+
+TEST(OccludedPairs, FloatingBoxShadowAgreesWithBruteForce) {
+  // Floor and ceiling of the unit cube with a box floating between them, off-centre: a partial
+  // shadow with smooth penumbrae.
+  const Scene scene = cube_with_box({0.3, 0.35, 0.4}, {0.6, 0.55, 0.5});
+  const PatchMesh mesh = subdivide(scene, {});
+  const Visibility vis(scene, VisibilityMethod::Exact);
+  const Pair p = pair_of(mesh, vis, 0, 1);
+  ASSERT_FALSE(p.occluders.empty());
+  const double reference = brute_force(vis, p, 400);
+  const OccludedPairResult r = integrate(vis, p, 1e-7);
+  EXPECT_FALSE(r.budget_exhausted);
+  EXPECT_LT(r.form_factor, unoccluded(p) - 0.01);  // the box does cast a shadow
+  // The midpoint grid's own error is about 1e-6 of F at n = 400 (kinks along the penumbrae).
+  EXPECT_NEAR(r.form_factor, reference, 3e-6 * reference);
+  EXPECT_LT(r.error, 1e-6 * reference);
+}
+
+TEST(OccludedPairs, ThinShadowAtAContactIsFound) {
+  // A box standing on the floor, the floor patch beside it, and a wall patch the box partly hides:
+  // near the contact line the shadow narrows to nothing, thinner than a fixed rule's spacing.
+  Scene scene = builders::unit_cube(0.5, 0.0);
+  builders::add_box(scene, {0.4, 0.4, 0.0}, {0.5, 0.6, 0.3});
+  PatchingOptions patching;
+  patching.max_edge = 0.5;  // floor patches touch the box's faces
+  const PatchMesh mesh = subdivide(scene, patching);
+  const Visibility vis(scene, VisibilityMethod::Exact);
+  // Receiver: the floor patch of x in [0.5, 1], y in [0.5, 1]; source: the wall x = 0, upper half.
+  int receiver = -1, source = -1;
+  for (int k = 0; k < mesh.size(); ++k) {
+    const Patch& q = mesh.patches[size_t(k)];
+    if (q.face == 0 && q.centroid.x() > 0.5 && q.centroid.y() > 0.5) receiver = k;
+    if (q.face == 5 && q.centroid.z() > 0.5 && q.centroid.y() > 0.5) source = k;
+  }
+  ASSERT_GE(receiver, 0);
+  ASSERT_GE(source, 0);
+  const Pair p = pair_of(mesh, vis, receiver, source);
+  ASSERT_FALSE(p.occluders.empty());
+  const double reference = brute_force(vis, p, 600);
+  const OccludedPairResult r = integrate(vis, p, 1e-6);
+  EXPECT_NEAR(r.form_factor, reference, 2e-5 * reference);
+}
+
+TEST(OccludedPairs, RowsOfAClosedRoomSumToOne) {
+  // Every face of a closed room with a floating box inside sees a full hemisphere of the room's
+  // faces: every row sums to 1. The fixed 6 × 6 rule leaves the rows of patches in partial
+  // shadow off by more than the adaptive rule does.
+  const Scene scene = cube_with_box({0.3, 0.35, 0.3}, {0.6, 0.55, 0.5});
+  PatchingOptions patching;
+  patching.max_edge = 0.34;
+  const PatchMesh mesh = subdivide(scene, patching);
+  const Visibility vis(scene, VisibilityMethod::Exact);
+  double worst[2] = {0.0, 0.0};
+  long long adaptive_pairs = 0;
+  for (int adaptive = 0; adaptive < 2; ++adaptive) {
+    FillOptions o;
+    o.tolerance = 1e-7;
+    o.quadrature = 6;
+    o.visibility = &vis;
+    o.occluded_tolerance = adaptive ? 1e-6 : 0.0;
+    FillStats stats;
+    const FormFactors F = fill_form_factors(mesh, o, stats);
+    for (int i = 0; i < mesh.size(); ++i) worst[adaptive] = std::max(worst[adaptive], std::abs(F.row_sum(i) - 1.0));
+    if (adaptive) {
+      adaptive_pairs = stats.pairs_occluded_adaptive;
+      EXPECT_EQ(stats.pairs_fixed_rule, 0);
+      EXPECT_EQ(stats.occluded_budget_exhausted, 0);
+      EXPECT_GT(stats.occluded_evaluations, 17 * stats.pairs_occluded_adaptive / 2);
+    }
+  }
+  EXPECT_GT(adaptive_pairs, 0);
+  EXPECT_LT(worst[1], 2e-5);
+  EXPECT_LT(worst[1], worst[0]);
+}
+
+}  // namespace

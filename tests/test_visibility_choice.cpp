@@ -1,0 +1,71 @@
+// The visibility decision (visibility/choice.h): auto picks from the estimated cost of each mode.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "scene_builders.h"
+#include "visibility/choice.h"
+
+namespace {
+
+using namespace photometria;
+
+TEST(VisibilityChoice, ConvexEnclosureNeedsNone) {
+  EXPECT_EQ(choose_visibility(builders::unit_cube(), VisibilityMode::Auto).mode, VisibilityMode::None);
+}
+
+TEST(VisibilityChoice, RequestedModesAreKept) {
+  Scene s = builders::unit_cube();
+  builders::add_box(s, {0.4, 0.4, 0.4}, {0.6, 0.6, 0.6});
+  EXPECT_EQ(choose_visibility(s, VisibilityMode::Rays).mode, VisibilityMode::Rays);
+  EXPECT_EQ(choose_visibility(s, VisibilityMode::Exact).mode, VisibilityMode::Exact);
+  EXPECT_EQ(choose_visibility(s, VisibilityMode::None).mode, VisibilityMode::None);
+}
+
+TEST(VisibilityChoice, FewOccludersPerShaftClip) {
+  // A room with one box: whatever the face count, shafts hold a few occluders.
+  Scene s = builders::unit_cube();
+  builders::add_box(s, {0.4, 0.4, 0.0}, {0.6, 0.6, 0.5});
+  const VisibilityChoice c = choose_visibility(s, VisibilityMode::Auto);
+  EXPECT_EQ(c.mode, VisibilityMode::Exact);
+  EXPECT_NE(c.reason.find("occluders per occluded shaft"), std::string::npos) << c.reason;
+  const ShaftCuller culler(s);
+  const VisibilityCostEstimate e = estimate_visibility_cost(s, culler, kDefaultRays);
+  EXPECT_GT(e.sampled_pairs, 0);
+  EXPECT_GT(e.occluded_pairs, 0);
+  EXPECT_GE(e.mean_occluders, 1.0);
+  EXPECT_LT(e.exact_seconds, e.rays_seconds);
+}
+
+TEST(VisibilityChoice, ManyOccludersPerShaftCastRays) {
+  // A cloud of 4,000 small tilted triangles in the middle of the room (a scanned object's facets, none
+  // coplanar with another): a shaft across the room meets dozens of them.
+  Scene s = builders::unit_cube();
+  for (int a = 0; a < 20; ++a)
+    for (int b = 0; b < 20; ++b)
+      for (int c = 0; c < 10; ++c) {
+        const Vec3 o(0.2 + 0.03 * a, 0.2 + 0.03 * b, 0.2 + 0.06 * c);
+        const double t = 0.3 * (a + 2 * b + 3 * c);  // a different tilt for every triangle
+        const int v = static_cast<int>(s.vertices.size());
+        s.vertices.push_back(o);
+        s.vertices.push_back(o + Vec3(0.04, 0.01 * std::sin(t), 0.01 * std::cos(t)));
+        s.vertices.push_back(o + Vec3(0.01 * std::cos(t), 0.04, 0.01 * std::sin(t)));
+        s.faces.push_back({{v, v + 1, v + 2}, 0, 0, static_cast<int>(s.faces.size())});
+      }
+  Scene box = builders::unit_cube();
+  builders::add_box(box, {0.4, 0.4, 0.0}, {0.6, 0.6, 0.5});
+  const VisibilityCostEstimate cloud_cost = estimate_visibility_cost(s, ShaftCuller(s), kDefaultRays);
+  const VisibilityCostEstimate box_cost = estimate_visibility_cost(box, ShaftCuller(box), kDefaultRays);
+  EXPECT_GT(cloud_cost.mean_occluders, 10 * box_cost.mean_occluders);
+  // The clipping cost grows faster than the occluder count (each cuts the fragments the next clips).
+  EXPECT_GT(cloud_cost.exact_seconds / cloud_cost.mean_occluders, 5 * box_cost.exact_seconds / box_cost.mean_occluders);
+  // With 64 rays per point, rays are the cheaper for the cloud, clipping for the box.
+  const VisibilityChoice c = choose_visibility(s, VisibilityMode::Auto, 64);
+  EXPECT_EQ(c.mode, VisibilityMode::Rays) << c.reason;
+  EXPECT_NE(c.reason.find("rays"), std::string::npos);
+  EXPECT_EQ(choose_visibility(box, VisibilityMode::Auto, 64).mode, VisibilityMode::Exact);
+  // Very few rays make them the choice even for a box.
+  EXPECT_EQ(choose_visibility(box, VisibilityMode::Auto, 1).mode, VisibilityMode::Rays);
+}
+
+}  // namespace
