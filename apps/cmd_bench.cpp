@@ -58,7 +58,7 @@ std::string sci(double x) {
 }
 
 void print_header() {
-  std::cout << std::left << std::setw(6) << "scene" << std::setw(13) << "setting" << std::setw(12) << "task"
+  std::cout << std::left << std::setw(11) << "scene" << std::setw(13) << "setting" << std::setw(12) << "task"
             << std::setw(7) << "vis" << std::right << std::setw(8) << "N" << std::setw(12) << "pairs" << std::setw(11)
             << "pairs/s" << std::setw(11) << "evals/s" << std::setw(10) << "rays" << std::setw(10) << "rays/s"
             << std::setw(9) << "ff s" << std::setw(8) << "solve s" << std::setw(9) << "gather s" << std::setw(9)
@@ -69,7 +69,7 @@ void print_header() {
 }
 
 void print_row(const pv::BenchRow& r) {
-  std::cout << std::left << std::setw(6) << r.scene << std::setw(13) << r.setting << std::setw(12) << r.task;
+  std::cout << std::left << std::setw(11) << r.scene << std::setw(13) << r.setting << std::setw(12) << r.task;
   if (!r.skipped.empty()) {
     std::cout << std::right << std::setw(7 + 8) << pm::format_count(r.patches) << "  skipped: " << r.skipped << "\n"
               << std::flush;

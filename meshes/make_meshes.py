@@ -3,11 +3,16 @@
 
     python3 meshes/make_meshes.py [--cornell-src DIR]
     python3 meshes/make_meshes.py --many-faces H OUT.vs3
+    python3 meshes/make_meshes.py --scanned-object OUT.obj
 
 The second form writes room_with_table as a View3D input instead (nothing else): every quad of
 the room, the light and the table tessellated into quads of edge at most H metres, each quad its
 own surface (the "rooms made of many faces" benchmark: H = 0.2 gives 1,666 surfaces, H = 0.1
-6,316).
+6,332).
+
+The third form writes the Cornell box (meshes/cornell_box.obj, its materials) with a scanned
+object standing on its floor in front of the boxes: a closed, bumpy sphere of 4,000 triangles,
+every triangle its own face and plane (the "scanned object" benchmark of `solve`).
 
 Conventions of every generated file: metres, y up, every face wound counter-clockwise seen from
 its front (the side that emits and receives light), so its right-hand (Newell) normal points to
@@ -236,11 +241,61 @@ def copy_cornell_box(src):
     print("cornell_box: copied from", src)
 
 
+def write_scanned_object(path, rings=41, segments=50):
+    """The Cornell box with a closed bumpy sphere of 2 * segments * (rings - 1) triangles on its floor."""
+    with open(os.path.join(HERE, "cornell_box.obj")) as f:
+        box = f.read()
+    box_vertices = sum(1 for line in box.splitlines() if re.match(r"v\s", line))
+    cx, cz, radius = 0.35, 0.5, 0.25
+
+    def point(i, j):
+        # Polar angle t from the bottom pole (i = 0) to the top (i = rings), azimuth p.
+        t = math.pi * i / rings
+        p = 2 * math.pi * j / segments
+        r = radius * (1 + 0.08 * math.sin(5 * t) * math.sin(4 * p))
+        return (cx + r * math.sin(t) * math.cos(p), radius - r * math.cos(t), cz + r * math.sin(t) * math.sin(p))
+
+    vertices = [(cx, 0.0, cz)]  # bottom pole, on the floor (y = 0)
+    for i in range(1, rings):
+        for j in range(segments):
+            vertices.append(point(i, j))
+    vertices.append((cx, 2 * radius, cz))  # top pole
+    ring = lambda i, j: 2 + (i - 1) * segments + j % segments  # 1-based OBJ index of point (i, j)
+    top = len(vertices)
+    triangles = []
+    for j in range(segments):  # outward: counter-clockwise seen from outside
+        triangles.append((1, ring(1, j), ring(1, j + 1)))
+        triangles.append((top, ring(rings - 1, j + 1), ring(rings - 1, j)))
+    for i in range(1, rings - 1):
+        for j in range(segments):
+            a, b, c, d = ring(i, j), ring(i, j + 1), ring(i + 1, j + 1), ring(i + 1, j)
+            triangles += [(a, d, c), (a, c, b)]
+    for t in triangles:
+        pts = [vertices[k - 1] for k in t]
+        n = cross(sub(pts[1], pts[0]), sub(pts[2], pts[0]))
+        centre = (cx, radius, cz)
+        assert dot(n, sub(centroid(pts), centre)) > 0, "scanned object: inward triangle"
+    with open(path, "w") as f:
+        f.write(HEADER + f"# The Cornell box (cornell_box.obj) with a scanned object: a closed bumpy sphere of\n"
+                         f"# {len(triangles)} triangles, radius {radius} m, standing on the floor at x = {cx}, z = {cz}.\n")
+        f.write(box.rstrip("\n") + "\n")
+        f.write("usemtl shortBox\ng scannedObject\n")
+        for v in vertices:
+            f.write(f"v {v[0]:.9g} {v[1]:.9g} {v[2]:.9g}\n")
+        for t in triangles:
+            f.write("f " + " ".join(str(box_vertices + k) for k in t) + "\n")
+    print(f"{path}: the Cornell box and a scanned object of {len(triangles)} triangles")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cornell-src", default=os.path.join(HERE, "..", "..", "shared", "scenes", "cornell_box"))
     parser.add_argument("--many-faces", nargs=2, metavar=("H", "OUT"), help="write the many-faces room as .vs3")
+    parser.add_argument("--scanned-object", metavar="OUT", help="write the Cornell box with a 4,000-triangle object")
     args = parser.parse_args()
+    if args.scanned_object:
+        write_scanned_object(args.scanned_object)
+        return
     if args.many_faces:
         write_many_faces_room(float(args.many_faces[0]), args.many_faces[1])
         return

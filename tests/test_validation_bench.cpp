@@ -156,12 +156,14 @@ TEST(BenchRunner, QuickRowsHoldFinitePositiveNumbers) {
   opt.on_start = [&](const std::string& label) { started.push_back(label); };
   opt.on_row = [&](const pv::BenchRow&) { ++reported; };
   const std::vector<pv::BenchRow> rows = pv::run_bench(opt);
-  ASSERT_EQ(rows.size(), 3u);  // cube n=8 solve and view factors, the smallest room
-  EXPECT_EQ(started.size(), 3u);
-  EXPECT_EQ(reported, 3);
+  ASSERT_EQ(rows.size(), 4u);  // cube n=8 solve and view factors, the smallest room, the room as faces
+  EXPECT_EQ(started.size(), 4u);
+  EXPECT_EQ(reported, 4);
   EXPECT_EQ(rows[0].scene + rows[0].task, "cubesolve");
   EXPECT_EQ(rows[1].scene + rows[1].task, "cubeviewfactors");
   EXPECT_EQ(rows[2].scene + rows[2].task, "roomsolve");
+  EXPECT_EQ(rows[3].scene + rows[3].task, "room-facesviewfactors");
+  EXPECT_EQ(rows[3].patches, 446);  // one patch per face
   EXPECT_EQ(rows[0].patches, 384);
   for (const pv::BenchRow& r : rows) {
     SCOPED_TRACE(r.scene + " " + r.setting + " " + r.task);
@@ -201,7 +203,7 @@ TEST(BenchRunner, CasesThatWouldNotFitAreSkippedWithAReason) {
   opt.quick = true;
   opt.max_memory_bytes = 1024;
   const std::vector<pv::BenchRow> rows = pv::run_bench(opt);
-  ASSERT_EQ(rows.size(), 3u);
+  ASSERT_EQ(rows.size(), 4u);
   for (const pv::BenchRow& r : rows) {
     EXPECT_NE(r.skipped.find("--max-memory"), std::string::npos) << r.skipped;
     EXPECT_GT(r.patches, 0);
@@ -216,7 +218,7 @@ TEST(BenchCli, QuickRunWritesTheCsvAndOneJsonObjectPerRow) {
   const CliRun r = run("bench --quick --json --threads 2 --csv " + csv);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const std::vector<std::string> out = lines(r.out);
-  ASSERT_EQ(out.size(), 3u) << r.out;
+  ASSERT_EQ(out.size(), 4u) << r.out;
   for (const std::string& l : out) {
     const auto j = nlohmann::ordered_json::parse(l);
     std::vector<std::string> keys;
@@ -231,7 +233,7 @@ TEST(BenchCli, QuickRunWritesTheCsvAndOneJsonObjectPerRow) {
   std::stringstream s;
   s << in.rdbuf();
   const std::vector<std::string> rows = lines(s.str());
-  ASSERT_EQ(rows.size(), 1u + 3u) << s.str();
+  ASSERT_EQ(rows.size(), 1u + 4u) << s.str();
   std::string header;
   for (const std::string& c : pv::bench_columns()) header += (header.empty() ? "" : ",") + c;
   EXPECT_EQ(rows[0], header);
@@ -247,7 +249,7 @@ TEST(BenchCli, TableNamesSkippedCasesAndBadOptionsFail) {
   const CliRun r = run("bench --quick --max-memory 1k");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("pairs/s"), std::string::npos) << r.out;
-  EXPECT_EQ(lines(r.out).size(), 1u + 3u) << r.out;
+  EXPECT_EQ(lines(r.out).size(), 1u + 4u) << r.out;
   EXPECT_NE(r.out.find("skipped: needs about"), std::string::npos) << r.out;
   EXPECT_NE(r.err.find("skipped"), std::string::npos) << r.err;
   EXPECT_EQ(run("bench --max-memory lots").exit_code, 1);

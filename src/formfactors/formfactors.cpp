@@ -45,7 +45,7 @@ constexpr double kOccludedFloor = 1e-4;
 struct FillCounts {
   long long evaluated = 0, backfacing = 0, tested = 0, culled = 0, occluded = 0, rays = 0, above = 0, rescaled = 0;
   long long fixed_rule = 0, gauss = 0, adaptive = 0, kernels = 0, exact_rectangles = 0;
-  long long occluded_adaptive = 0, occluded_evaluations = 0, occluded_budget = 0;
+  long long occluded_adaptive = 0, occluded_evaluations = 0, occluded_budget = 0, blocked_whole = 0;
 
   void merge(const FillCounts& o) {
     evaluated += o.evaluated;
@@ -64,6 +64,7 @@ struct FillCounts {
     occluded_adaptive += o.occluded_adaptive;
     occluded_evaluations += o.occluded_evaluations;
     occluded_budget += o.occluded_budget;
+    blocked_whole += o.blocked_whole;
   }
 };
 
@@ -181,12 +182,29 @@ class RowFill {
         store_for_every_point(j, unoccluded_pair(j, analytic, area_factor));
         return;
       }
+      if (blocked_by_one_occluder()) {
+        ++k_.occluded;
+        ++k_.blocked_whole;
+        store_for_every_point(j, 0.0);
+        return;
+      }
       if (occluded_) {
         occluded_pair(j, analytic, area_factor);
         return;
       }
     }
     fixed_rule(j, shaft_known);
+  }
+
+  // True when one occluder of the pair's shaft blocks every segment between the parts of the
+  // patches that exchange light (ShaftCuller::blocks_every_segment): F_ij = 0 exactly, no rule needed.
+  bool blocked_by_one_occluder() const {
+    if (receiver_part_.size() < 3 || source_part_.size() < 3) return false;
+    for (const int o : occluders_)
+      if (s_.vis->culler().blocks_every_segment(receiver_part_.data(), int(receiver_part_.size()), source_part_.data(),
+                                                int(source_part_.size()), o))
+        return true;
+    return false;
   }
 
   // Per-pair mode: the pair's value stands in for each receiver point's.
@@ -471,6 +489,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
   stats.pairs_occluded_adaptive += counts.occluded_adaptive;
   stats.occluded_evaluations += counts.occluded_evaluations;
   stats.occluded_budget_exhausted += counts.occluded_budget;
+  stats.pairs_blocked_whole += counts.blocked_whole;
   stats.max_row_error_estimate = std::max(stats.max_row_error_estimate, max_row_error);
   return F;
 }

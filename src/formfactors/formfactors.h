@@ -58,11 +58,12 @@ struct FillOptions {
 };
 
 struct FillStats {
-  long long pairs_evaluated = 0;   // pairs whose kernel was evaluated
-  long long pairs_backfacing = 0;  // skipped: facing away or coplanar
-  long long pairs_tested = 0;      // evaluated, F > 0, visibility on: shaft tested
-  long long pairs_culled = 0;      // of those (or all, when the scene is convex): no face in the shaft
-  long long pairs_occluded = 0;    // evaluated, then found fully blocked
+  long long pairs_evaluated = 0;      // pairs whose kernel was evaluated
+  long long pairs_backfacing = 0;     // skipped: facing away or coplanar
+  long long pairs_tested = 0;         // evaluated, F > 0, visibility on: shaft tested
+  long long pairs_culled = 0;         // of those (or all, when the scene is convex): no face in the shaft
+  long long pairs_occluded = 0;       // evaluated, then found fully blocked
+  long long pairs_blocked_whole = 0;  // per-pair mode: of those, blocked whole by one occluder (no rule needed)
   long long rays_cast = 0;
   long long above_unoccluded = 0;        // pairs with F_ij > F_ij unoccluded (must stay 0)
   double max_point_row_sum = 0.0;        // largest Σ_j F_vis(x_q -> P_j) over receiver points, before scaling

@@ -4,11 +4,13 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <fstream>
 #include <iomanip>
 #include <limits>
+#include <map>
 #include <sstream>
 
 #include "formfactors/aligned_rectangles.h"
@@ -312,8 +314,43 @@ Scene bench_room_scene() {
 
 std::vector<double> bench_room_edges() { return {0.24, 0.112, 0.056}; }
 
+Scene bench_room_many_faces_scene(double h) {
+  const Scene room = bench_room_scene();
+  Scene s;
+  s.source = "bench room as faces of edge <= " + format_edge(h);
+  s.materials = room.materials;
+  s.groups = room.groups;
+  // One vertex per distinct point (grid corners shared between neighbouring quads and along the
+  // edges where faces meet), as a loader's welding would leave them.
+  std::map<std::array<long long, 3>, int> index;
+  const auto vertex = [&](const Vec3& p) {
+    const std::array<long long, 3> key{std::llround(p.x() * 1e9), std::llround(p.y() * 1e9), std::llround(p.z() * 1e9)};
+    const auto [it, added] = index.emplace(key, static_cast<int>(s.vertices.size()));
+    if (added) s.vertices.push_back(p);
+    return it->second;
+  };
+  for (const Face& face : room.faces) {
+    // Every face of the room is a parallelogram: corners a, b, c, d with c = b + d − a.
+    const Vec3 a = room.vertices[size_t(face.vertices[0])], u = room.vertices[size_t(face.vertices[1])] - a,
+               v = room.vertices[size_t(face.vertices[3])] - a;
+    const int nu = std::max(1, int(std::ceil(u.norm() / h - 1e-9))),
+              nv = std::max(1, int(std::ceil(v.norm() / h - 1e-9)));
+    for (int j = 0; j < nv; ++j)
+      for (int i = 0; i < nu; ++i) {
+        const auto at = [&](int di, int dj) { return vertex(a + u * double(i + di) / nu + v * double(j + dj) / nv); };
+        Face quad = face;
+        quad.vertices = {at(0, 0), at(1, 0), at(1, 1), at(0, 1)};
+        quad.source_face = static_cast<int>(s.faces.size());
+        s.faces.push_back(quad);
+      }
+  }
+  return s;
+}
+
 std::vector<BenchRow> run_bench(const BenchOptions& opt) {
   const Scene cube = bench_cube_scene(), room = bench_room_scene();
+  const double faces_edge = opt.quick ? 0.5 : 0.2;
+  const Scene room_faces = bench_room_many_faces_scene(faces_edge);
   std::vector<Case> cases;
   for (int n : {8, 16, 32}) {
     if (opt.quick && n != 8) continue;
@@ -328,6 +365,7 @@ std::vector<BenchRow> run_bench(const BenchOptions& opt) {
   } else {
     for (double edge : edges) cases.push_back({"room", format_edge(edge), "solve", &room, bench_room_patching(edge)});
   }
+  cases.push_back({"room-faces", format_edge(faces_edge), "viewfactors", &room_faces, PatchingOptions{}});
   std::vector<BenchRow> rows;
   for (const Case& c : cases) {
     const std::string label = c.scene + " " + c.setting + " " + c.task;

@@ -16,6 +16,10 @@
 //                      legs) and four chairs (seat, four legs, back), every piece a closed
 //                      outward-facing box; patch edges chosen for N ≈ 1,500, 6,000 and 22,000
 //                      (the last not in quick mode). One "solve" row each (visibility auto).
+//   room-faces         the same room as a thermal engineer's or a CAD export's mesh: every face
+//                      cut into quads of edge <= 0.2 m (0.5 m in quick mode), each quad its own
+//                      input face (bench_room_many_faces_scene). One "viewfactors" row at the
+//                      default accuracy, one patch per face (what `viewfactors --by face` fills).
 // No timing is asserted anywhere: the numbers are for reading, `quick` is a crash check.
 #pragma once
 
@@ -59,11 +63,15 @@ Scene bench_room_scene();
 // Patch edges (metres) of the three room sizes, giving N ≈ 1,500, 6,000 and 22,000.
 std::vector<double> bench_room_edges();  // {0.24, 0.112, 0.056}: 1,520, 6,088, 22,419 patches
 inline PatchingOptions bench_room_patching(double edge) { return PatchingOptions{edge, 0.0}; }
+// bench_room_scene() with every face cut into nu × nv quads of edge at most h metres (nu, nv the
+// smallest counts that reach it), each quad its own face of the face's material and group,
+// vertices shared where quads meet: 2,130 faces at h = 0.2, 446 at h = 0.5.
+Scene bench_room_many_faces_scene(double h);
 
 // --- runner ------------------------------------------------------------------------------------
 
 struct BenchRow {
-  std::string scene;       // "cube" or "room"
+  std::string scene;       // "cube", "room" or "room-faces"
   std::string setting;     // "n=32", "edge=0.1 m"
   std::string task;        // "solve" or "viewfactors"
   std::string visibility;  // mode used: "none", "exact" or "rays"

@@ -58,6 +58,7 @@ nlohmann::json viewfactor_summary_json(const ViewFactorJobResult& r) {
                 {"visibility_tested", r.fill.pairs_tested},
                 {"visibility_culled", r.fill.pairs_culled},
                 {"occluded", r.fill.pairs_occluded},
+                {"blocked_by_one_occluder", r.fill.pairs_blocked_whole},
                 {"occluded_adaptive", r.fill.pairs_occluded_adaptive},
                 {"occluded_evaluations", r.fill.occluded_evaluations},
                 {"occluded_budget_exhausted", r.fill.occluded_budget_exhausted},

@@ -255,3 +255,44 @@ void ShaftCuller::occluders_among(const Vec3* a, int na, const Vec3* b, int nb, 
 }
 
 }  // namespace photometria
+
+namespace photometria {
+
+bool ShaftCuller::blocks_every_segment(const Vec3* a, int na, const Vec3* b, int nb, int o) const {
+  const Polygon& w = occluders_[size_t(o)];
+  const Vec3& n = normals_[size_t(o)];
+  // A and B strictly on opposite sides of W's plane (by more than the tolerance).
+  double a_lo = 1e300, a_hi = -1e300, b_lo = 1e300, b_hi = -1e300;
+  for (int k = 0; k < na; ++k) {
+    const double s = n.dot(a[k] - w[0]);
+    a_lo = std::min(a_lo, s);
+    a_hi = std::max(a_hi, s);
+  }
+  for (int k = 0; k < nb; ++k) {
+    const double s = n.dot(b[k] - w[0]);
+    b_lo = std::min(b_lo, s);
+    b_hi = std::max(b_hi, s);
+  }
+  const bool a_above = a_lo > tol_ && b_hi < -tol_, a_below = a_hi < -tol_ && b_lo > tol_;
+  if (!a_above && !a_below) return false;
+  // The segments' crossings of W's plane fill the section of hull(A ∪ B) by the plane, the convex
+  // hull of the corner-to-corner crossings: every segment crosses inside W when those all do
+  // (clearly inside, by the tolerance: a segment through W's boundary is not blocked).
+  for (int i = 0; i < na; ++i) {
+    const double sa = n.dot(a[i] - w[0]);
+    for (int j = 0; j < nb; ++j) {
+      const double sb = n.dot(b[j] - w[0]);
+      const Vec3 p = a[i] + (sa / (sa - sb)) * (b[j] - a[i]);
+      for (size_t k = 0; k < w.size(); ++k) {
+        const Vec3& e0 = w[k];
+        const Vec3& e1 = w[k + 1 == w.size() ? 0 : k + 1];
+        const Vec3 edge = e1 - e0;
+        // n · (edge × (p − e0)) / |edge|: p's distance inside the edge's line (W counter-clockwise about n).
+        if (n.dot(edge.cross(p - e0)) <= tol_ * edge.norm()) return false;
+      }
+    }
+  }
+  return true;
+}
+
+}  // namespace photometria

@@ -97,6 +97,12 @@ class ShaftCuller {
   void occluders_among(const Vec3* a, int na, const Vec3* b, int nb, const std::vector<int>& candidates,
                        std::vector<int>& out) const;
 
+  // True when occluder o alone blocks every segment between convex polygons A and B: they lie
+  // strictly on opposite sides of its plane and every segment crosses it clearly inside its
+  // polygon (checked on the corner-to-corner segments, whose crossings span all the others'). The
+  // pair's form factor is then 0 exactly (a floor patch under a table top and a ceiling patch).
+  bool blocks_every_segment(const Vec3* a, int na, const Vec3* b, int nb, int o) const;
+
   // Removes from `occluders` those that cannot add to the shadow seen from x: the occluders of a
   // convex solid (a closed, consistently oriented component of occluders joined by shared edges,
   // every corner on or behind every one's plane: a box) that x lies clearly behind, when x lies
