@@ -73,6 +73,31 @@ double brute_force(const Visibility& vis, const Pair& p, int n) {
   return sum / (double(n) * n);
 }
 
+// The cell rule: exact for every monomial u^a v^b of degree <= 7 (its embedded rule for degree
+// <= 5), whose mean over [−1, 1]² is 1/((a+1)(b+1)) for even a and b, else 0; and neither rule
+// is exact one degree higher (the difference is the error estimate).
+TEST(OccludedPairs, GenzMalikRuleIsExactToDegreeSevenAndFive) {
+  const GenzMalikRule rule;
+  const auto exact = [](int a, int b) { return a % 2 || b % 2 ? 0.0 : 1.0 / ((a + 1.0) * (b + 1.0)); };
+  for (int a = 0; a <= 8; ++a)
+    for (int b = 0; a + b <= 8; ++b) {
+      double f[GenzMalikRule::kPoints];
+      for (int q = 0; q < GenzMalikRule::kPoints; ++q) f[q] = std::pow(rule.u[q], a) * std::pow(rule.v[q], b);
+      double mean7, mean5;
+      rule.means(f, mean7, mean5);
+      SCOPED_TRACE(testing::Message() << "u^" << a << " v^" << b);
+      if (a + b <= 7) { EXPECT_NEAR(mean7, exact(a, b), 1e-14); }
+      if (a + b <= 5) { EXPECT_NEAR(mean5, exact(a, b), 1e-14); }
+    }
+  double f[GenzMalikRule::kPoints], mean7, mean5;
+  for (int q = 0; q < GenzMalikRule::kPoints; ++q) f[q] = std::pow(rule.u[q], 8);
+  rule.means(f, mean7, mean5);
+  EXPECT_GT(std::abs(mean7 - 1.0 / 9.0), 1e-6);
+  for (int q = 0; q < GenzMalikRule::kPoints; ++q) f[q] = std::pow(rule.u[q], 6);
+  rule.means(f, mean7, mean5);
+  EXPECT_GT(std::abs(mean5 - 1.0 / 7.0), 1e-6);
+}
+
 TEST(OccludedPairs, FloatingBoxShadowAgreesWithBruteForce) {
   // Floor and ceiling of the unit cube with a box floating between them, off-centre: a partial
   // shadow with smooth penumbrae.

@@ -25,21 +25,25 @@ constexpr double kDifferenceRatio = (9.0 / 70.0) / (9.0 / 10.0);
 
 // The 17 points, in the order the rule reads them: centre; +λ2 s, −λ2 s, +λ2 t, −λ2 t; the
 // same with λ3; (±λ4, ±λ4); (±λ5, ±λ5).
-struct GenzMalikPoints {
-  double u[17], v[17];
-  GenzMalikPoints() {
-    int k = 0;
-    u[k] = v[k] = 0.0;
-    ++k;
-    for (const double l : {kLambda2, kLambda3}) {
-      const double a[4][2] = {{l, 0}, {-l, 0}, {0, l}, {0, -l}};
-      for (const auto& p : a) u[k] = p[0], v[k++] = p[1];
-    }
-    for (const double l : {kLambda4, kLambda5})
-      for (const double a : {l, -l})
-        for (const double b : {l, -l}) u[k] = a, v[k++] = b;
+GenzMalikRule::GenzMalikRule() {
+  int k = 0;
+  u[k] = v[k] = 0.0;
+  ++k;
+  for (const double l : {kLambda2, kLambda3}) {
+    const double a[4][2] = {{l, 0}, {-l, 0}, {0, l}, {0, -l}};
+    for (const auto& p : a) u[k] = p[0], v[k++] = p[1];
   }
-};
+  for (const double l : {kLambda4, kLambda5})
+    for (const double a : {l, -l})
+      for (const double b : {l, -l}) u[k] = a, v[k++] = b;
+}
+
+void GenzMalikRule::means(const double* f, double& mean7, double& mean5) const {
+  const double axis2 = f[1] + f[2] + f[3] + f[4], axis3 = f[5] + f[6] + f[7] + f[8];
+  const double diag4 = f[9] + f[10] + f[11] + f[12], diag5 = f[13] + f[14] + f[15] + f[16];
+  mean7 = kW7[0] * f[0] + kW7[1] * axis2 + kW7[2] * axis3 + kW7[3] * diag4 + kW7[4] * diag5;
+  mean5 = kW5[0] * f[0] + kW5[1] * axis2 + kW5[2] * axis3 + kW5[3] * diag4;
+}
 
 OccludedPairIntegrator::OccludedPairIntegrator(const Visibility& vis) : vis_(vis) {}
 
@@ -56,7 +60,7 @@ double OccludedPairIntegrator::blocked_at(const OccludedPair& pair, const Vec3& 
 }
 
 bool OccludedPairIntegrator::evaluate(const OccludedPair& pair, Box& b) {
-  static const GenzMalikPoints points;
+  static const GenzMalikRule points;
   const ReceiverCell& cell = cells_[size_t(b.cell)];
   cell_scale_s_ = (cell.c[1] - cell.c[0]).norm();
   cell_scale_t_ = (cell.n == 4 ? cell.c[3] - cell.c[0] : cell.c[2] - cell.c[1]).norm();
@@ -69,9 +73,9 @@ bool OccludedPairIntegrator::evaluate(const OccludedPair& pair, Box& b) {
   if (list.empty()) return false;
   const double hs = 0.5 * (b.s1 - b.s0), ht = 0.5 * (b.t1 - b.t0);
   const double sm = b.s0 + hs, tm = b.t0 + ht;
-  double g[17], f[17];  // h and F(dA_x → P_j), times the map's Jacobian
+  double g[GenzMalikRule::kPoints], f[GenzMalikRule::kPoints];  // h and F(dA_x → P_j), times the Jacobian
   bool some_shadowed = false, some_lit = false;
-  for (int q = 0; q < 17; ++q) {
+  for (int q = 0; q < GenzMalikRule::kPoints; ++q) {
     double jac;
     const Vec3 x = cell.at(sm + hs * points.u[q], tm + ht * points.v[q], &jac);
     double unoccluded;
@@ -81,14 +85,8 @@ bool OccludedPairIntegrator::evaluate(const OccludedPair& pair, Box& b) {
     some_lit = some_lit || g[q] < f[q];
   }
   const double measure = (b.s1 - b.s0) * (b.t1 - b.t0);
-  const auto rule = [&](const double* v, double& mean7, double& mean5) {
-    const double axis2 = v[1] + v[2] + v[3] + v[4], axis3 = v[5] + v[6] + v[7] + v[8];
-    const double diag4 = v[9] + v[10] + v[11] + v[12], diag5 = v[13] + v[14] + v[15] + v[16];
-    mean7 = kW7[0] * v[0] + kW7[1] * axis2 + kW7[2] * axis3 + kW7[3] * diag4 + kW7[4] * diag5;
-    mean5 = kW5[0] * v[0] + kW5[1] * axis2 + kW5[2] * axis3 + kW5[3] * diag4;
-  };
   double mean7, mean5;
-  rule(g, mean7, mean5);
+  points.means(g, mean7, mean5);
   b.integral = measure * mean7;
   b.error = measure * std::abs(mean7 - mean5);
   if ((!some_shadowed || !some_lit) && occluder_within(list, corners, k)) {
@@ -101,7 +99,7 @@ bool OccludedPairIntegrator::evaluate(const OccludedPair& pair, Box& b) {
     // than the cell is wide, the samples differ, or the bound is negligible. (An occluder farther
     // away casts penumbrae about as wide as its distance, which the rule's points do sample.)
     double bound7, bound5;
-    rule(f, bound7, bound5);
+    points.means(f, bound7, bound5);
     b.error = measure * std::max(0.0, bound7);
     b.split_s = hs * cell_scale_s_ >= ht * cell_scale_t_;
     return true;

@@ -32,6 +32,16 @@
 
 namespace photometria {
 
+// Genz & Malik's rule on [−1, 1]² (the integrator's cell rule; exposed for its tests): point q
+// (0..16) of the 17 at (u[q], v[q]), and from the values f at those points the mean of f over the
+// square by the degree-7 rule and by its embedded degree-5 rule.
+struct GenzMalikRule {
+  static constexpr int kPoints = 17;
+  double u[kPoints], v[kPoints];
+  GenzMalikRule();
+  void means(const double* f, double& mean7, double& mean5) const;
+};
+
 // One occluded pair: receiver P_i, source P_j, and the candidate occluders of their shaft.
 struct OccludedPair {
   const Vec3* receiver;  // P_i's corners (3 or 4)
