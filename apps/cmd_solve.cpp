@@ -46,7 +46,8 @@ pm::Rgb parse_rgb(const std::string& text, const std::string& option) {
 struct SolveArgs {
   std::string scene, output;
   std::optional<double> max_edge, max_area, tolerance;
-  std::optional<int> quadrature, rays, max_iterations;
+  std::optional<int> quadrature, max_iterations;
+  std::optional<std::string> rays;
   std::optional<double> accuracy;
   std::optional<std::string> visibility;
   std::optional<std::string> solver;
@@ -106,7 +107,10 @@ int run_solve(const SolveArgs& a) {
   opt.quadrature = setting(a.quadrature, st, "quadrature", 1);
   opt.accuracy = setting(a.accuracy, st, "accuracy", 0.0);
   if (opt.accuracy < 0 || opt.accuracy >= 1) pm::throw_bad_input("--accuracy must be in [0, 1)");
-  opt.rays = setting(a.rays, st, "rays", 576);
+  // A scene file may give "rays" as a number or as "auto".
+  const bool rays_number = st.contains("rays") && st.at("rays").is_number_integer();
+  opt.rays = pm::parse_ray_count(rays_number && !a.rays ? st.at("rays").dump()
+                                                        : setting(a.rays, st, "rays", std::string("auto")));
   opt.solver.tolerance = setting(a.tolerance, st, "tolerance", 1e-8);
   opt.solver.max_iterations = setting(a.max_iterations, st, "max_iterations", 100000);
   opt.solver.method = pm::parse_method(setting(a.solver, st, "solver", std::string("auto")));
@@ -116,7 +120,6 @@ int run_solve(const SolveArgs& a) {
       !std::isfinite(opt.patching.max_area))
     pm::throw_bad_input("--max-edge/--max-area must be finite and >= 0");
   if (opt.quadrature < 1 || opt.quadrature > 16) pm::throw_bad_input("--quadrature must be in 1..16");
-  if (opt.rays < 1) pm::throw_bad_input("--rays must be >= 1");
   if (!(opt.solver.tolerance > 0) || !std::isfinite(opt.solver.tolerance))
     pm::throw_bad_input("--tolerance must be finite and > 0");
   opt.max_memory_bytes = max_memory;
@@ -165,8 +168,11 @@ Command add_solve_command(CLI::App& app) {
                    "for pairs nothing can block; default 0 = off)")
       ->check(options::real_in(0, 1, false, true));
   solve->add_option("--visibility", s.visibility, "auto | none | rays | exact (default auto)");
-  solve->add_option("--rays", s.rays, "Rays per receiver point and patch for --visibility rays (default 576 = 24²)")
-      ->check(options::integer_in(1, 1 << 24));
+  solve
+      ->add_option("--rays", s.rays,
+                   "Rays per receiver point and patch in ray visibility: auto (default: 8² to 32², until the "
+                   "estimated error meets --accuracy, else 1e-2) or a count in 1..2²⁴")
+      ->check(options::auto_or_integer_in(1, 1 << 24));
   solve->add_option("--seed", s.seed, "Ray sampling seed (default 1)")
       ->check(options::integer_in(0, std::numeric_limits<long long>::max()));
   solve->add_option("--tolerance", s.tolerance, "Solver relative residual (default 1e-8)")

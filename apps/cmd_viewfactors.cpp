@@ -24,7 +24,8 @@ struct ViewFactorArgs {
   std::string scene, output, by = "group", format = "csv", enforce = "none", visibility = "auto", points, points_output,
                              max_memory, matrix = "auto", matrix_precision = "auto";
   double threshold = 0.0, max_edge = 0.0, accuracy = 1e-7, occluded_accuracy = 0.0;
-  int rays = 576, threads = 0;
+  std::string rays = "auto";
+  int threads = 0;
   bool json = false, flip_normals = false, quiet = false;
 };
 
@@ -44,7 +45,7 @@ pm::ViewFactorJob job_of(const ViewFactorArgs& a) {
   opt.accuracy = a.accuracy;
   opt.occluded_accuracy = a.occluded_accuracy;
   opt.patching.max_edge = a.max_edge;
-  opt.rays = a.rays;
+  opt.rays = pm::parse_ray_count(a.rays);
   opt.threads = a.threads;
   if (!a.max_memory.empty() && !pm::parse_memory_size(a.max_memory, opt.max_memory_bytes))
     pm::throw_bad_input("--max-memory: '" + a.max_memory + "' is not a size (e.g. 512M, 2G, 1.5GiB)");
@@ -102,8 +103,10 @@ Command add_viewfactors_command(CLI::App& app) {
                   "visibility (default 0: the fixed --quadrature rule)")
       ->check(options::real_in(0, 1, false, true));
   sub->add_option("--visibility", a->visibility, "auto (default), none, rays or exact");
-  sub->add_option("--rays", a->rays, "Rays per (point, patch) in ray visibility (default 576)")
-      ->check(options::integer_in(1, 1 << 24));
+  sub->add_option("--rays", a->rays,
+                  "Rays per (point, patch) in ray visibility: auto (default: 8² to 32², until the estimated error "
+                  "meets --accuracy) or a count in 1..2²⁴")
+      ->check(options::auto_or_integer_in(1, 1 << 24));
   sub->add_option(
       "--max-memory", a->max_memory,
       "Refuse before the fill when the memory estimate exceeds this: 512M, 2G, ... (default: MemAvailable)");

@@ -49,6 +49,19 @@ inline CLI::Validator integer_in(long long lo, long long hi) {
       "INT in " + interval);
 }
 
+// `auto` or an integer from 1 to 2²⁴ (--rays; photometria::parse_ray_count takes it apart).
+inline CLI::Validator auto_or_integer_in(long long lo, long long hi) {
+  const CLI::Validator integer = integer_in(lo, hi);
+  const std::string interval = "[" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+  return CLI::Validator(
+      [=](std::string& text) -> std::string {
+        std::string copy = text;
+        if (text == "auto" || integer(copy).empty()) return {};
+        return text + " is not auto or an integer in " + interval;
+      },
+      "auto or INT in " + interval);
+}
+
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // Thread counts: 0 means every core; more than this many is surely a typo.

@@ -283,3 +283,31 @@ TEST(Cli, ValidateQuickReportWritesTheTableAndThePlot) {
     EXPECT_EQ(std::string(magic, 8), std::string("\x89PNG\r\n\x1a\n", 8));
   }
 }
+
+// Ray visibility: adaptive by default (the summary names the sampling and the estimated error of
+// a row sum from the rays); a fixed count from --rays or from the scene file's settings.
+TEST(Cli, RaySamplingIsAdaptiveByDefaultAndReportsItsError) {
+  const fs::path dir = scratch();
+  const std::string out = (dir / "rays.vtu").string();
+  const std::string base = "solve " + mesh("cornell_box.obj") + " -o " + out + " --json --max-edge 0.5";
+  const CliRun adaptive = run(base + " --visibility rays");
+  ASSERT_EQ(adaptive.exit_code, 0) << adaptive.err;
+  const auto a = nlohmann::json::parse(adaptive.out)["visibility"];
+  EXPECT_EQ(a["ray_sampling"].get<std::string>().rfind("adaptive, 8² to 32² rays", 0), 0u) << a;
+  EXPECT_GT(a["rays_cast"].get<long long>(), 0);
+  // The blocks shadow parts of the floor and walls: a small but non-zero error estimate.
+  EXPECT_GT(a["row_ray_error_max"].get<double>(), 0.0);
+  EXPECT_LT(a["row_ray_error_max"].get<double>(), 0.05);
+  const CliRun fixed = run(base + " --visibility rays --rays 64");
+  ASSERT_EQ(fixed.exit_code, 0) << fixed.err;
+  EXPECT_EQ(nlohmann::json::parse(fixed.out)["visibility"]["ray_sampling"], "64 rays per point and patch");
+  std::ofstream(dir / "rays.json") << R"({"meshes": [{"file": ")" << mesh("cornell_box.obj") << R"("}],
+    "settings": {"max_edge": 0.5, "visibility": "rays", "rays": 16}})";
+  const CliRun from_file = run("solve " + (dir / "rays.json").string() + " -o " + out + " --json");
+  ASSERT_EQ(from_file.exit_code, 0) << from_file.err;
+  EXPECT_EQ(nlohmann::json::parse(from_file.out)["visibility"]["ray_sampling"], "16 rays per point and patch");
+  // Exact visibility: no ray sampling to report.
+  const CliRun exact = run(base + " --visibility exact");
+  ASSERT_EQ(exact.exit_code, 0) << exact.err;
+  EXPECT_EQ(nlohmann::json::parse(exact.out)["visibility"]["ray_sampling"], "");
+}

@@ -61,7 +61,7 @@ OccludedPairResult integrate(const Visibility& vis, const Pair& p, double relati
 // The visible factor averaged over an n × n midpoint grid of a rectangular receiver (brute force).
 double brute_force(const Visibility& vis, const Pair& p, int n) {
   double sum = 0.0;
-  long long rays = 0;
+  RayTally rays;
   for (int a = 0; a < n; ++a)
     for (int b = 0; b < n; ++b) {
       const double u = (a + 0.5) / n, v = (b + 0.5) / n;

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "scene_builders.h"
+#include "util/error.h"
 #include "visibility/choice.h"
 
 namespace {
@@ -30,7 +31,7 @@ TEST(VisibilityChoice, FewOccludersPerShaftClip) {
   EXPECT_EQ(c.mode, VisibilityMode::Exact);
   EXPECT_NE(c.reason.find("occluders per occluded shaft"), std::string::npos) << c.reason;
   const ShaftCuller culler(s);
-  const VisibilityCostEstimate e = estimate_visibility_cost(s, culler, kDefaultRays);
+  const VisibilityCostEstimate e = estimate_visibility_cost(culler, kDefaultRays);
   EXPECT_GT(e.sampled_pairs, 0);
   EXPECT_GT(e.occluded_pairs, 0);
   EXPECT_GE(e.mean_occluders, 1.0);
@@ -54,8 +55,8 @@ TEST(VisibilityChoice, ManyOccludersPerShaftCastRays) {
       }
   Scene box = builders::unit_cube();
   builders::add_box(box, {0.4, 0.4, 0.0}, {0.6, 0.6, 0.5});
-  const VisibilityCostEstimate cloud_cost = estimate_visibility_cost(s, ShaftCuller(s), kDefaultRays);
-  const VisibilityCostEstimate box_cost = estimate_visibility_cost(box, ShaftCuller(box), kDefaultRays);
+  const VisibilityCostEstimate cloud_cost = estimate_visibility_cost(ShaftCuller(s), kDefaultRays);
+  const VisibilityCostEstimate box_cost = estimate_visibility_cost(ShaftCuller(box), kDefaultRays);
   EXPECT_GT(cloud_cost.mean_occluders, 10 * box_cost.mean_occluders);
   // The clipping cost grows faster than the occluder count (each cuts the fragments the next clips).
   EXPECT_GT(cloud_cost.exact_seconds / cloud_cost.mean_occluders, 5 * box_cost.exact_seconds / box_cost.mean_occluders);
@@ -69,3 +70,23 @@ TEST(VisibilityChoice, ManyOccludersPerShaftCastRays) {
 }
 
 }  // namespace
+
+TEST(VisibilityChoice, RayCountIsAutoOrAPositiveInteger) {
+  EXPECT_EQ(parse_ray_count("auto"), kAdaptiveRays);
+  EXPECT_EQ(parse_ray_count("576"), 576);
+  EXPECT_EQ(parse_ray_count("16777216"), 1 << 24);
+  for (const std::string bad : {"0", "-1", "16777217", "1.5", "", "Auto", "64x"}) {
+    try {
+      parse_ray_count(bad);
+      ADD_FAILURE() << "accepted '" << bad << "'";
+    } catch (const Error& e) {
+      EXPECT_EQ(std::string(e.what()).rfind("--rays: " + bad + " is not auto", 0), 0u) << e.what();
+    }
+  }
+  EXPECT_EQ(ray_sampling_name(64, {}), "64 rays per point and patch");
+  EXPECT_EQ(ray_sampling_name(kAdaptiveRays, {1e-3, 1024}),
+            "adaptive, 8² to 32² rays per point and patch, to a relative error of 0.001");
+  EXPECT_EQ(ray_sampling_name(kAdaptiveRays, {1e-3, 4096}).find("8² to 64²"), 10u);
+  EXPECT_EQ(ray_sampling_for(0.0).tolerance, RaySampling{}.tolerance);
+  EXPECT_EQ(ray_sampling_for(1e-5).tolerance, 1e-5);
+}

@@ -1,5 +1,5 @@
 // Ray-cast visibility against the analytic occluded configurations: convergence with the number
-// of rays, and the error at the default setting.
+// of rays, the error at the default setting, and adaptive sampling's count and error estimate.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -41,13 +41,13 @@ double rms_error(const Config& c, int rays, int seeds) {
   const double f0 = lambert_form_factor(x, c.source);
   const Vec3 ns = polygon_normal(c.source);
   double sum2 = 0.0;
-  long long cast = 0;
+  RayTally cast;
   for (int s = 0; s < seeds; ++s) {
     const double f = vis.point_to_patch(x, c.source.data(), 4, ns, f0, occ, rays, pair_stream(s, 0, 1), cast);
     EXPECT_LE(f, f0);
     sum2 += std::pow((f - c.reference) / c.reference, 2);
   }
-  EXPECT_GE(cast, (long long)rays * seeds);
+  EXPECT_GE(cast.cast, (long long)(rays == kAdaptiveRays ? 64 : rays) * seeds);  // adaptive: at least 8² each
   return std::sqrt(sum2 / seeds);
 }
 
@@ -72,4 +72,73 @@ TEST(VisibilityRays, DefaultRaysReachOnePercent) {
   const double e = rms_error(off_centre(), rays, 64);
   std::printf("default %d rays: rms relative error %.3e\n", rays, e);
   EXPECT_LT(e, 0.01);
+}
+
+namespace {
+
+// Adaptive sampling of `c` from the origin with `sampling`, over `seeds` seeds: the RMS of the
+// actual relative errors, the RMS of the estimated ones (√variance / reference) and the mean count.
+struct AdaptiveRun {
+  double actual = 0.0, estimated = 0.0, mean_rays = 0.0;
+};
+AdaptiveRun adaptive_run(const Config& c, RaySampling sampling, int seeds) {
+  std::vector<Polygon> faces = c.blockers;
+  faces.push_back(c.source);
+  const RayVisibility rays(scene_of(faces), sampling);
+  const Vec3 ns = polygon_normal(c.source);
+  const double f0 = lambert_form_factor(Receiver{Vec3::Zero(), Vec3::UnitZ()}, c.source);
+  AdaptiveRun r;
+  for (int s = 0; s < seeds; ++s) {
+    int used = 0;
+    double variance = 0.0;
+    const double v = rays.point_to_patch(Vec3::Zero(), Vec3::UnitZ(), c.source.data(), 4, ns, kAdaptiveRays,
+                                         pair_stream(s, 3, 5), &used, &variance);
+    r.actual += std::pow((v * f0 - c.reference) / c.reference, 2);
+    r.estimated += variance * f0 * f0 / (c.reference * c.reference);
+    r.mean_rays += used;
+  }
+  r.actual = std::sqrt(r.actual / seeds);
+  r.estimated = std::sqrt(r.estimated / seeds);
+  r.mean_rays /= seeds;
+  return r;
+}
+
+}  // namespace
+
+// A partly hidden source: the count grows with the accuracy asked (8², 16², 32², 64² levels), the
+// error falls, and the estimate bounds the actual error without overstating it tenfold (it is that
+// of independent samples; jittered ones err less).
+TEST(VisibilityRays, AdaptiveCountFollowsTheAccuracyAndEstimatesItsError) {
+  const Config c = off_centre();
+  const AdaptiveRun loose = adaptive_run(c, {1e-1, 4096}, 64), tight = adaptive_run(c, {1e-4, 4096}, 64);
+  std::printf("tolerance 1e-1: %.0f rays, rms error %.3e, estimated %.3e\n", loose.mean_rays, loose.actual,
+              loose.estimated);
+  std::printf("tolerance 1e-4: %.0f rays, rms error %.3e, estimated %.3e\n", tight.mean_rays, tight.actual,
+              tight.estimated);
+  EXPECT_LE(loose.mean_rays, 256);                     // settled by 16² at the latest
+  EXPECT_EQ(tight.mean_rays, 64 + 256 + 1024 + 4096);  // 1e-4 is out of reach: every level up to the cap
+  EXPECT_LT(tight.actual, loose.actual / 4);
+  for (const AdaptiveRun& r : {loose, tight}) {
+    EXPECT_GE(r.estimated, 0.8 * r.actual);
+    EXPECT_LE(r.estimated, 10 * r.actual);
+  }
+}
+
+// A source nothing hides, and one hidden whole: the first level agrees everywhere, so 8² rays
+// settle it, with no error estimated.
+TEST(VisibilityRays, AdaptiveStopsAtTheFirstLevelWhenEveryRayAgrees) {
+  const Polygon source = rect_poly(-1, 1, -1, 1, 2);
+  const Vec3 ns = polygon_normal(source);
+  for (const bool hidden : {false, true}) {
+    // Hidden: a blocker wider than the source's whole cone, halfway. Clear: a blocker off to the side.
+    const Polygon blocker = hidden ? rect_poly(-2, 2, -2, 2, 1) : rect_poly(5, 6, 5, 6, 1);
+    const RayVisibility rays(scene_of({blocker, source}));
+    int used = 0;
+    double variance = -1.0;
+    const double v =
+        rays.point_to_patch(Vec3::Zero(), Vec3::UnitZ(), source.data(), 4, ns, kAdaptiveRays, 9, &used, &variance);
+    EXPECT_EQ(v, hidden ? 0.0 : 1.0);
+    EXPECT_EQ(used, 64);
+    EXPECT_EQ(variance, 0.0);
+  }
 }

@@ -157,7 +157,9 @@ TEST(VisibilityScenes, CornellBoxExactAndRaysAgree) {
   const Visibility exact(box, VisibilityMethod::Exact), rays(box, VisibilityMethod::Rays);
   FillStats se, sr, s0;
   const FormFactorMatrix Fe = fill(mesh, &exact, se), Fr = fill(mesh, &rays, sr), F0 = fill(mesh, nullptr, s0);
-  const int k = FillOptions{}.rays;
+  // Adaptive sampling (the default) casts at least 8² rays, and more while the pair is partly hidden.
+  ASSERT_EQ(FillOptions{}.rays, kAdaptiveRays);
+  const int k = 64;
   double worst = 0.0;
   for (int i = 0; i < mesh.size(); ++i)
     for (int j = 0; j < mesh.size(); ++j) {
@@ -246,7 +248,7 @@ TEST(VisibilityScenes, CoplanarNeighboursAndSeamsDoNotLeak) {
     std::vector<int> occ;
     vis.culler().occluders(&x.point, 1, beyond.data(), 4, occ);
     ASSERT_FALSE(occ.empty());
-    long long cast = 0;
+    RayTally cast;
     const double f0 = lambert_form_factor(x, beyond);
     EXPECT_GT(f0, 0.0);
     EXPECT_EQ(vis.point_to_patch(x, beyond.data(), 4, -Vec3::UnitZ(), f0, occ, 4096, 7, cast), 0.0);
@@ -391,7 +393,7 @@ TEST(VisibilityScenes, PointVisibilityPerTileEqualsClippingEachPatch) {
       std::iota(everything.begin(), everything.end(), 0);
       const double tol = plane_tolerance(mesh);
       int checked = 0, shadowed = 0, partly = 0, tile_hidden = 0, tile_clear = 0;
-      long long rays = 0;
+      RayTally rays;
       Vec3 b[4];
       // The tree culling (the default for scenes of many faces) on every third receiver of these.
       const int step = culling == PointCulling::Cones ? c.step : 3 * c.step;
@@ -445,7 +447,7 @@ TEST(VisibilityScenes, PointVisibilityPerTileEqualsClippingEachPatch) {
       EXPECT_GT(partly, 30);
       EXPECT_GT(tile_clear, checked / 10);
       EXPECT_GT(tile_hidden, 0);
-      EXPECT_EQ(rays, 0);
+      EXPECT_EQ(rays.cast, 0);
     }
   }
 }
@@ -505,7 +507,7 @@ TEST(VisibilityScenes, PointVisibilityAtTheSamePointWithAnotherNormal) {
       }
   ASSERT_GE(creases.size(), 20u);
   PointVisibility reused(vis, mesh);
-  long long rays = 0;
+  RayTally rays;
   int compared = 0, shadowed = 0;
   Vec3 b[4];
   for (const auto& [first, second] : creases) {

@@ -122,6 +122,9 @@ class RowFill {
   // ray-estimated terms of a point whose sum exceeds that (see the header). Raises
   // max_point_sum to the row's largest point sum.
   double row_error() const { return row_error_; }
+  // Ray mode: the estimated standard error of the row's sum, √(Σ_j Σ_q w_q² F_q² var V_q)
+  // (independent estimates; RayTally).
+  double row_ray_error() const { return std::sqrt(row_ray_variance_); }
 
   void rescale_rays(double& max_point_sum) {
     for (int q = 0; q < nq_; ++q) {
@@ -287,8 +290,10 @@ class RowFill {
     // Only rays use the pair's stream.
     const uint64_t stream =
         s_.rays_mode ? pair_stream(pair_stream(s_.options.seed, uint64_t(i_), uint64_t(j)), 0, 0) : 0;
+    RayTally tally;
     const PointVisibility::VisibleFactor v =
-        from_point_->visible_factor(j, unoccluded_[0], s_.options.rays, stream, k_.rays);
+        from_point_->visible_factor(j, unoccluded_[0], s_.options.rays, stream, tally);
+    add_rays(tally, rule_[0].weight);
     if (v.unshadowed) ++k_.culled;
     if (s_.rays_mode && !v.unshadowed) ray_part_[size_t(j)] = v.value;
     unoccluded_[0] = v.value;
@@ -312,10 +317,12 @@ class RowFill {
     }
     double f = 0.0;
     const uint64_t stream = pair_stream(s_.options.seed, uint64_t(i_), uint64_t(j));
+    RayTally tally;
     for (int q = 0; q < nq_; ++q) {
       const double v = s_.vis->point_to_patch(Receiver{rule_[q].point, pi_.normal}, source(j), pj.corner_count,
                                               pj.normal, unoccluded_[q], occluders_, s_.options.rays,
-                                              pair_stream(stream, uint64_t(q), 0), k_.rays);
+                                              pair_stream(stream, uint64_t(q), 0), tally);
+      add_rays(tally, rule_[q].weight);
       if (s_.rays_mode) ray_part_[size_t(q) * s_.n + j] = v;
       unoccluded_[q] = v;  // now the visible factor
       f += rule_[q].weight * v;
@@ -343,6 +350,13 @@ class RowFill {
     candidates_.swap(occluders_);
     s_.vis->culler().occluders_among(receiver_part_.data(), int(receiver_part_.size()), source_part_.data(),
                                      int(source_part_.size()), candidates_, occluders_);
+  }
+
+  // A point's ray tally into the row's counts, with the point's rule weight.
+  void add_rays(RayTally& tally, double weight) {
+    k_.rays += tally.cast;
+    row_ray_variance_ += weight * weight * tally.variance;
+    tally = {};
   }
 
   // P_j's corners (sj_), fetched on first need per pair.
@@ -394,6 +408,7 @@ class RowFill {
   GroupedShaftCuller* grouped_;
   OccludedPairIntegrator* occluded_;  // per-pair mode with exact visibility, else null
   double row_error_ = 0.0;            // Σ_j of the occluded pairs' error estimates
+  double row_ray_variance_ = 0.0;     // see row_ray_error()
   PointVisibility* from_point_ = nullptr;
   double* row_;
   std::vector<Facing> facing_;
@@ -440,9 +455,12 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
     if (per_pair && !rays_mode && options.occluded_tolerance > 0.0)
       for (int t = 0; t < omp_get_max_threads(); ++t) occluded.emplace_back(*vis);
   }
-  double max_row_error = 0.0;
+  double max_row_error = 0.0, max_ray_error = 0.0;
 
-#pragma omp parallel for schedule(dynamic, 4) reduction(merge : counts) reduction(max : max_point_sum, max_row_error)
+#pragma omp parallel for schedule(dynamic, 4) reduction(merge     \
+                                                        : counts) \
+    reduction(max                                                 \
+              : max_point_sum, max_row_error, max_ray_error)
   for (int i = 0; i < n; ++i) {
     // F_i,·: written in place into a dense double matrix (zero until now), else into a buffer.
     std::vector<double> row_buffer;
@@ -458,6 +476,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
     fill.fill_pairs();
     fill.rescale_rays(max_point_sum);
     max_row_error = std::max(max_row_error, fill.row_error());
+    max_ray_error = std::max(max_ray_error, fill.row_ray_error());
     F.set_row(i, row);
     const int done = ++rows_done;
     if (options.progress && omp_get_thread_num() == 0) options.progress(double(done) / n);
@@ -491,6 +510,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
   stats.occluded_budget_exhausted += counts.occluded_budget;
   stats.pairs_blocked_whole += counts.blocked_whole;
   stats.max_row_error_estimate = std::max(stats.max_row_error_estimate, max_row_error);
+  stats.max_row_ray_error = std::max(stats.max_row_ray_error, max_ray_error);
   return F;
 }
 

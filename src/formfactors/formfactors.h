@@ -48,7 +48,8 @@ struct FillOptions {
   double occluded_tolerance = 0.0;
   long long occluded_budget = 20000;
   const Visibility* visibility = nullptr;  // null: no occlusion test (every pair unoccluded)
-  int rays = 576;                          // rays per (receiver point, source patch) in ray mode
+  int rays = kAdaptiveRays;                // rays per (receiver point, source patch) in ray mode
+                                           // (kAdaptiveRays: as the Visibility's RaySampling asks)
   uint64_t seed = 1;                       // ray sampling seed (results repeat for a seed)
   std::function<void(double)> progress;    // called with the fraction done (from one thread)
   // Storage of the result (formfactors/storage.h); Auto is resolved by the caller from the
@@ -77,6 +78,8 @@ struct FillStats {
   long long occluded_evaluations = 0;       // their receiver points (exact visible factor each)
   long long occluded_budget_exhausted = 0;  // of those, stopped by the budget above the tolerance
   double max_row_error_estimate = 0.0;      // max over rows of Σ_j the occluded pairs' error estimates
+  double max_row_ray_error = 0.0;           // ray mode: max over rows of the estimated standard error of
+                                            // the row sum from ray sampling (visibility.h RaySampling)
 };
 
 // The invariants of a filled matrix (checked in tests and reported in the summary).

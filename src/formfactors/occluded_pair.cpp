@@ -53,7 +53,7 @@ double OccludedPairIntegrator::blocked_at(const OccludedPair& pair, const Vec3& 
   const Receiver at{x, pair.receiver_normal};
   unoccluded = lambert_form_factor(at, pair.source, pair.source_count);
   if (!(unoccluded > 0.0)) return 0.0;
-  long long rays = 0;
+  RayTally rays;  // exact visibility: unused
   const double visible =
       vis_.point_to_patch(at, pair.source, pair.source_count, pair.source_normal, unoccluded, occluders, 0, 0, rays);
   return std::max(0.0, unoccluded - visible);

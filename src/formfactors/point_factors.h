@@ -35,7 +35,7 @@ class PointFactors {
     long long evaluated = 0;  // sources facing the point with a non-zero unoccluded factor
     long long tested = 0;     // of those, asked for their visible part (visibility on)
     long long culled = 0;     // of those, found unshadowed (no occluder in the way)
-    long long rays = 0;       // rays cast (ray visibility)
+    RayTally rays;            // rays cast and their estimated variance (ray visibility)
   };
 
   // mesh; sources = patch_batch(mesh); facing = FacingGroups(mesh, tol); vis = null without

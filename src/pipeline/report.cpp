@@ -74,8 +74,9 @@ nlohmann::json summary_json(const Scene& scene, const SolveSummary& s) {
                              {"points_rescaled", s.fill.points_rescaled}};
   j["visibility"] = {{"mode", s.visibility_mode},
                      {"reason", s.visibility_reason},
-                     {"rays_per_pair", s.rays},
-                     {"rays_cast", s.fill.rays_cast + s.vertex_rays_cast}};
+                     {"ray_sampling", s.ray_sampling},
+                     {"rays_cast", s.fill.rays_cast + s.vertex_rays_cast},
+                     {"row_ray_error_max", s.fill.max_row_ray_error}};
   j["quadrature"] = s.quadrature;
   j["lights"] = s.lights;
   j["pair_rules"] = {{"accuracy", s.accuracy},
@@ -143,7 +144,10 @@ std::string summary_table(const Scene& scene, const SolveSummary& s) {
                       << s.checks.max_row_sum << ", reciprocity " << std::setprecision(3) << s.checks.reciprocity_error
                       << "\n";
   row("visibility") << s.visibility_mode << " — " << s.visibility_reason << "\n";
-  if (s.rays) row("rays") << s.fill.rays_cast + s.vertex_rays_cast << " cast (" << s.rays << " per pair)\n";
+  if (!s.ray_sampling.empty())
+    row("rays") << s.fill.rays_cast + s.vertex_rays_cast << " cast (" << s.ray_sampling
+                << "); estimated error of a row sum from the rays, max " << std::setprecision(3)
+                << s.fill.max_row_ray_error << "\n";
   if (s.fill.pairs_gauss + s.fill.pairs_adaptive + s.fill.pairs_exact_rectangles > 0)
     row("pair rules") << "accuracy " << s.accuracy << ": " << s.fill.pairs_gauss << " Gauss (far), "
                       << s.fill.pairs_adaptive << " adaptive (near/touching), " << s.fill.pairs_exact_rectangles

@@ -142,7 +142,7 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
     evaluated += counts.evaluated;
     tested += counts.tested;
     culled += counts.culled;
-    rays += counts.rays;
+    rays += counts.rays.cast;
     const int done = ++groups_done;
     if (opt.progress && omp_get_thread_num() == 0) opt.progress("vertex gather", double(done) / groups);
   }
@@ -226,8 +226,9 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
   const VisibilityChoice visibility = choose_visibility(scene, opt.visibility, opt.rays);
   s.visibility_mode = visibility.name();
   s.visibility_reason = visibility.reason;
-  const std::unique_ptr<Visibility> vis = make_visibility(scene, visibility);
-  s.rays = visibility.mode == VisibilityMode::Rays ? opt.rays : 0;
+  const RaySampling sampling = ray_sampling_for(opt.accuracy);
+  const std::unique_ptr<Visibility> vis = make_visibility(scene, visibility, sampling);
+  if (visibility.mode == VisibilityMode::Rays) s.ray_sampling = ray_sampling_name(opt.rays, sampling);
   timer.lap("visibility_setup");
 
   FillOptions fill;

@@ -28,8 +28,9 @@ struct SolveOptions {
   double accuracy = 0.0;     // > 0: per-pair rule to this relative accuracy for
                              // pairs nothing can block (formfactors/pair_integration.h)
   VisibilityMode visibility = VisibilityMode::Auto;
-  int rays = 576;     // rays per (receiver point, patch) in ray mode (fill and vertex gather)
-  uint64_t seed = 1;  // ray sampling seed
+  int rays = kAdaptiveRays;  // rays per (receiver point, patch) in ray mode (fill and vertex gather);
+                             // kAdaptiveRays: until the estimated error meets `accuracy` (else 1e-2)
+  uint64_t seed = 1;         // ray sampling seed
   SolverOptions solver;
   int threads = 0;  // 0 = all cores
   // Refuse (BadInput) before the form-factor fill when the estimated memory (pipeline/memory.h,
@@ -66,8 +67,8 @@ struct SolveSummary {
   std::string visibility_reason;  // why that mode was chosen
   int quadrature = 1;
   double accuracy = 0.0;
-  int lights = 0;  // analytic lights in the scene file (0: the direct-light pass is skipped)
-  int rays = 0;
+  int lights = 0;            // analytic lights in the scene file (0: the direct-light pass is skipped)
+  std::string ray_sampling;  // ray mode: ray_sampling_name (visibility/choice.h); else empty
   SolverReport solver;
   double tolerance = 0.0;
   int output_points = 0;

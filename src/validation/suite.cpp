@@ -163,7 +163,7 @@ class Suite {
       for (int rays : ladder) {
         ErrorStats err;
         const auto t0 = Clock::now();
-        long long cast = 0;
+        RayTally cast;
         const int seeds = method == VisibilityMethod::Exact ? 1 : 16;
         for (int seed = 0; seed < seeds; ++seed)
           err.add(

@@ -64,6 +64,7 @@ nlohmann::json viewfactor_summary_json(const ViewFactorJobResult& r) {
                 {"occluded_budget_exhausted", r.fill.occluded_budget_exhausted},
                 {"row_error_estimate_max", r.fill.max_row_error_estimate},
                 {"rays_cast", r.fill.rays_cast},
+                {"row_ray_error_max", r.fill.max_row_ray_error},
                 {"kernel_evaluations", r.fill.kernel_evaluations}};
   j["enforce"] = enforcement_name(job.enforcement);
   const EnforcementReport& rep = r.enforcement_report;
@@ -107,6 +108,8 @@ std::string viewfactor_summary_text(const ViewFactorJobResult& r) {
     << job.fill.quadrature << " (visibility), " << fill.pairs_backfacing << " facing away; " << fill.pairs_tested
     << " shaft-tested, " << fill.pairs_culled << " culled, " << fill.pairs_occluded << " fully occluded, "
     << fill.rays_cast << " rays\n";
+  if (fill.rays_cast > 0)
+    o << "  rays: estimated error of a row sum from the rays, max " << fill.max_row_ray_error << "\n";
   if (fill.pairs_occluded_adaptive > 0)
     o << "  occluded pairs: " << fill.pairs_occluded_adaptive << " adaptive to " << job.fill.occluded_accuracy << " ("
       << fill.occluded_evaluations << " points, " << fill.occluded_budget_exhausted

@@ -64,7 +64,7 @@ PatchViewFactors compute_view_factors(const Scene& scene, const ViewFactorOption
   const VisibilityChoice visibility = choose_visibility(scene, opt.visibility, opt.rays);
   r.visibility_mode = visibility.name();
   r.visibility_reason = visibility.reason;
-  r.visibility = make_visibility(scene, visibility);
+  r.visibility = make_visibility(scene, visibility, ray_sampling_for(opt.accuracy));
   FillOptions fill;
   fill.quadrature = opt.quadrature;
   fill.tolerance = opt.accuracy;

@@ -43,7 +43,8 @@ struct ViewFactorOptions {
   // to this relative tolerance instead (formfactors/occluded_pair.h); 0: the fixed rule above.
   double occluded_accuracy = 0.0;
   VisibilityMode visibility = VisibilityMode::Auto;
-  int rays = 576;  // rays per (receiver point, patch) in ray mode
+  int rays = kAdaptiveRays;  // rays per (receiver point, patch) in ray mode; kAdaptiveRays: until
+                             // the estimated error meets `accuracy` (visibility.h RaySampling)
   uint64_t seed = 1;
   int threads = 0;  // OpenMP threads for the fill; 0 = all cores
   // Optional: called with the stage ("form factors") and its fraction done, from one thread at

@@ -1,6 +1,7 @@
 #include "visibility/choice.h"
 
 #include <algorithm>
+#include <charconv>
 #include <sstream>
 #include <vector>
 
@@ -24,7 +25,29 @@ std::string VisibilityChoice::name() const {
   }
 }
 
-VisibilityCostEstimate estimate_visibility_cost(const Scene& scene, const ShaftCuller& culler, int rays, int samples) {
+int parse_ray_count(const std::string& text) {
+  if (text == "auto") return kAdaptiveRays;
+  long long v = 0;
+  const char* end = text.data() + text.size();
+  const auto [ptr, ec] = std::from_chars(text.data(), end, v);
+  if (text.empty() || ec != std::errc() || ptr != end || v < 1 || v > (1 << 24))
+    throw_bad_input("--rays: " + text + " is not auto or an integer in [1, 16777216]");
+  return static_cast<int>(v);
+}
+
+std::string ray_sampling_name(int rays, const RaySampling& sampling) {
+  std::ostringstream o;
+  if (rays != kAdaptiveRays) {
+    o << rays << " rays per point and patch";
+    return o.str();
+  }
+  int last = 8;
+  while (4 * last * last <= sampling.max_rays) last *= 2;
+  o << "adaptive, 8² to " << last << "² rays per point and patch, to a relative error of " << sampling.tolerance;
+  return o.str();
+}
+
+VisibilityCostEstimate estimate_visibility_cost(const ShaftCuller& culler, int rays, int samples) {
   VisibilityCostEstimate e;
   const std::vector<Polygon>& faces = culler.scene_faces();
   const long long n = static_cast<long long>(faces.size());
@@ -51,11 +74,10 @@ VisibilityCostEstimate estimate_visibility_cost(const Scene& scene, const ShaftC
     ++e.occluded_pairs;
     occluders += static_cast<long long>(found.size());
   }
-  (void)scene;
   if (e.occluded_pairs > 0) e.mean_occluders = double(occluders) / e.occluded_pairs;
   const double m = e.mean_occluders;
   e.exact_seconds = kClipSecondsPerOccluder * m * (1.0 + m / 4.0);
-  e.rays_seconds = kSecondsPerRay * rays;
+  e.rays_seconds = kSecondsPerRay * (rays == kAdaptiveRays ? kAdaptiveRaysExpected : rays);
   return e;
 }
 
@@ -75,23 +97,23 @@ VisibilityChoice choose_visibility(const Scene& scene, VisibilityMode requested,
     return c;
   }
   const ShaftCuller culler(scene);
-  const VisibilityCostEstimate e = estimate_visibility_cost(scene, culler, rays);
+  const VisibilityCostEstimate e = estimate_visibility_cost(culler, rays);
   const bool exact = e.exact_seconds <= e.rays_seconds;
   c.mode = exact ? VisibilityMode::Exact : VisibilityMode::Rays;
   std::ostringstream o;
   o.precision(2);
   o << "auto: " << why << "; " << e.mean_occluders << " occluders per occluded shaft (" << e.occluded_pairs << " of "
     << e.sampled_pairs << " sampled face pairs), so clipping costs about " << e.exact_seconds * 1e6
-    << " us per point against " << e.rays_seconds * 1e6 << " us for " << rays
-    << " rays: " << (exact ? "exact clipping" : "rays");
+    << " us per point against " << e.rays_seconds * 1e6 << " us for "
+    << (rays == kAdaptiveRays ? "adaptive" : std::to_string(rays)) << " rays: " << (exact ? "exact clipping" : "rays");
   c.reason = o.str();
   return c;
 }
 
-std::unique_ptr<Visibility> make_visibility(const Scene& scene, const VisibilityChoice& choice) {
+std::unique_ptr<Visibility> make_visibility(const Scene& scene, const VisibilityChoice& choice, RaySampling sampling) {
   if (choice.mode == VisibilityMode::None) return nullptr;
   return std::make_unique<Visibility>(
-      scene, choice.mode == VisibilityMode::Exact ? VisibilityMethod::Exact : VisibilityMethod::Rays);
+      scene, choice.mode == VisibilityMode::Exact ? VisibilityMethod::Exact : VisibilityMethod::Rays, sampling);
 }
 
 }  // namespace photometria

@@ -27,7 +27,11 @@ enum class VisibilityMode { Auto, None, Rays, Exact };
 // hold 3.2 occluders on average, and 0.26 µs per ray on the same room.
 inline constexpr double kClipSecondsPerOccluder = 0.30e-6;
 inline constexpr double kSecondsPerRay = 0.26e-6;
-inline constexpr int kDefaultRays = 576;  // rays per (receiver point, source patch) unless asked otherwise
+inline constexpr int kDefaultRays = kAdaptiveRays;  // rays per (receiver point, source patch) unless asked otherwise
+// The mean count adaptive sampling (visibility.h, RaySampling: 8² to 32² at 1e-2) casts per
+// (point, patch) in an occluded shaft, for the cost model: 306 on the Cornell box solved with
+// --visibility rays (239.7 M rays where a fixed 576 cast 451.1 M; docs/performance.md).
+inline constexpr double kAdaptiveRaysExpected = 306;
 
 struct VisibilityCostEstimate {
   int sampled_pairs = 0;        // facing face pairs whose shafts were culled
@@ -38,9 +42,9 @@ struct VisibilityCostEstimate {
 };
 
 // Samples up to `samples` pairs of facing scene faces (deterministic: a fixed stride through the
-// pairs) and culls their shafts with `culler`. `rays`: the ray count the run would use.
-VisibilityCostEstimate estimate_visibility_cost(const Scene& scene, const ShaftCuller& culler, int rays,
-                                                int samples = 512);
+// pairs) of the culler's scene and culls their shafts. `rays`: the ray count the run would use
+// (kAdaptiveRays: kAdaptiveRaysExpected).
+VisibilityCostEstimate estimate_visibility_cost(const ShaftCuller& culler, int rays, int samples = 512);
 
 // "auto", "none", "rays", "exact" -> the mode; throws Error(BadInput) naming --visibility and
 // the choices for anything else.
@@ -55,7 +59,23 @@ struct VisibilityChoice {
 // The mode `requested` resolves to for `scene` (Auto decided as above, for `rays` rays per point).
 VisibilityChoice choose_visibility(const Scene& scene, VisibilityMode requested, int rays = kDefaultRays);
 
-// The visibility object of a choice: null for None.
-std::unique_ptr<Visibility> make_visibility(const Scene& scene, const VisibilityChoice& choice);
+// `--rays`: "auto" -> kAdaptiveRays, an integer in [1, 2²⁴] -> that count; throws
+// Error(BadInput) naming --rays and the value for anything else.
+int parse_ray_count(const std::string& text);
+
+// What a run's ray sampling is, for the summaries: "adaptive, 8² to 32² rays per point and patch,
+// to a relative error of 1e-07" or "576 rays per point and patch".
+std::string ray_sampling_name(int rays, const RaySampling& sampling);
+
+// Ray mode's adaptive sampling for a run asked to `accuracy` (relative; 0 = not asked: 1e-2).
+inline RaySampling ray_sampling_for(double accuracy) {
+  RaySampling s;
+  if (accuracy > 0.0) s.tolerance = accuracy;
+  return s;
+}
+
+// The visibility object of a choice: null for None. sampling: ray mode's adaptive sampling.
+std::unique_ptr<Visibility> make_visibility(const Scene& scene, const VisibilityChoice& choice,
+                                            RaySampling sampling = {});
 
 }  // namespace photometria

@@ -16,13 +16,14 @@ namespace photometria {
 
 using namespace visibility_detail;
 
-Visibility::Visibility(const Scene& scene, VisibilityMethod method) : method_(method), culler_(scene) {
-  if (method == VisibilityMethod::Rays) rays_ = std::make_unique<RayVisibility>(scene);
+Visibility::Visibility(const Scene& scene, VisibilityMethod method, RaySampling sampling)
+    : method_(method), culler_(scene) {
+  if (method == VisibilityMethod::Rays) rays_ = std::make_unique<RayVisibility>(scene, sampling);
 }
 
 double Visibility::point_to_patch(const Receiver& x, const Vec3* source, int n, const Vec3& source_normal,
                                   double unoccluded, const std::vector<int>& occluders, int rays, uint64_t stream,
-                                  long long& rays_cast, bool narrow) const {
+                                  RayTally& tally, bool narrow) const {
   if (occluders.empty() || unoccluded <= 0.0) return unoccluded;
   // The shaft of the point and the patch is narrower than the pair's: test it too.
   thread_local std::vector<int> narrowed;
@@ -41,8 +42,10 @@ double Visibility::point_to_patch(const Receiver& x, const Vec3* source, int n, 
   // Start just inside the point's own surface when it sits on an edge or corner, so rays leave cleanly.
   const Vec3 start = x.approach.isZero() ? x.point : Vec3(x.point + 10 * rays_->surface_offset() * x.approach);
   int used = 0;
-  const double v = rays_->point_to_patch(start, x.normal, source, n, source_normal, rays, stream, &used);
-  rays_cast += used;
+  double variance = 0.0;
+  const double v = rays_->point_to_patch(start, x.normal, source, n, source_normal, rays, stream, &used, &variance);
+  tally.cast += used;
+  tally.variance += unoccluded * unoccluded * variance;
   return unoccluded * v;
 }
 
@@ -426,7 +429,7 @@ PointVisibility::TileShadow PointVisibility::shadow_of_tile(int t) {
 }
 
 double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& normal, double unoccluded, int rays,
-                                uint64_t stream, long long& rays_cast, bool& unshadowed) {
+                                uint64_t stream, RayTally& tally, bool& unshadowed) {
   Impl& m = *impl_;
   unshadowed = true;
   if (unoccluded <= 0.0) return unoccluded;
@@ -437,7 +440,7 @@ double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& no
     m.grouped.occluders(patch, b, nb, m.occluders);
     if (m.occluders.empty()) return unoccluded;
     unshadowed = false;
-    return m.vis->point_to_patch(m.x, b, nb, normal, unoccluded, m.occluders, rays, stream, rays_cast,
+    return m.vis->point_to_patch(m.x, b, nb, normal, unoccluded, m.occluders, rays, stream, tally,
                                  /*narrow=*/true);  // culled from the point itself
   };
   if (m.vis->method() == VisibilityMethod::Rays || t < 0 || m.grouped.tile_corner_count(t) != 4 || nb < 3 || nb > 4)

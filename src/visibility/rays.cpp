@@ -78,7 +78,8 @@ struct RayVisibility::Impl {
   RTCScene scene = nullptr;
 };
 
-RayVisibility::RayVisibility(const Scene& scene) : impl_(std::make_unique<Impl>()) {
+RayVisibility::RayVisibility(const Scene& scene, RaySampling sampling)
+    : impl_(std::make_unique<Impl>()), sampling_(sampling) {
   offset_ = 1e-7 * std::max(bounding_diagonal(scene.vertices), 1e-30);
   impl_->device = rtcNewDevice("verbose=0");
   if (!impl_->device) throw Error(ErrorKind::Io, "embree: cannot create a device");
@@ -159,35 +160,63 @@ double RayVisibility::patch_to_patch(const Vec3* r, int rn, const Vec3& r_normal
 }
 
 double RayVisibility::point_to_patch(const Vec3& p, const Vec3& normal, const Vec3* s, int sn, const Vec3& s_normal,
-                                     int rays, uint64_t stream, int* rays_used) const {
+                                     int rays, uint64_t stream, int* rays_used, double* variance) const {
   SplitMix64 rng{stream};
   std::vector<std::pair<double, double>> b;
   const Vec3 x = p + 10 * offset_ * normal;
   int used = 0;
-  auto estimate = [&](int k, bool& unanimous) {
+  // One stratified estimate of V from k segments, with its estimated variance: that of a ratio
+  // estimator Σ w v / Σ w (Cochran, "Sampling Techniques", 3rd ed., Wiley 1977, ch. 6; visibility.h).
+  struct Estimate {
+    double visible = 1.0, variance = 0.0;
+    bool unanimous = true;
+  };
+  std::vector<double> w, v;
+  auto estimate = [&](int k) {
     const int m = static_cast<int>(std::lround(std::sqrt(double(k))));
     if (m * m == k) jittered_grid(m, rng, b);
     else latin_hypercube(k, rng, b);
+    w.clear();
+    v.clear();
     double seen = 0.0, total = 0.0;
-    int hits = 0, misses = 0;
     for (int q = 0; q < k; ++q) {
       const Vec3 y = map_to_patch(s, sn, b[q].first, b[q].second);
-      const double w = transfer_weight(p, normal, y, s_normal);
-      if (w == 0.0) continue;
-      total += w;
+      const double wq = transfer_weight(p, normal, y, s_normal);
+      if (wq == 0.0) continue;
+      total += wq;
       ++used;
-      if (!blocked(x, y + 10 * offset_ * s_normal)) {
-        seen += w;
-        ++misses;
-      } else ++hits;
+      const double clear = blocked(x, y + 10 * offset_ * s_normal) ? 0.0 : 1.0;
+      seen += wq * clear;
+      w.push_back(wq);
+      v.push_back(clear);
     }
-    unanimous = hits == 0 || misses == 0;
-    return total > 0 ? seen / total : 1.0;
+    Estimate e;
+    if (!(total > 0.0)) return e;
+    e.visible = seen / total;
+    double sum = 0.0;
+    for (size_t q = 0; q < w.size(); ++q) {
+      sum += w[q] * w[q] * (v[q] - e.visible) * (v[q] - e.visible);
+      e.unanimous = e.unanimous && v[q] == v[0];
+    }
+    e.variance = sum / (total * total);
+    return e;
   };
-  bool unanimous = false;
-  const double v = estimate(rays, unanimous);
+  Estimate e;
+  if (rays != kAdaptiveRays) {
+    e = estimate(rays);
+  } else {
+    // Levels of 8², 16², 32², ...: each a fresh estimate (the last one is kept), so the cost is at
+    // most 4/3 of the last level's.
+    for (int m = 8;; m *= 2) {
+      e = estimate(m * m);
+      const bool settled =
+          e.unanimous || std::sqrt(e.variance) <= sampling_.tolerance * std::max(e.visible, kRayErrorFloor);
+      if (settled || 4 * m * m > sampling_.max_rays) break;
+    }
+  }
   if (rays_used) *rays_used = used;
-  return v;
+  if (variance) *variance = e.variance;
+  return e.visible;
 }
 
 }  // namespace photometria

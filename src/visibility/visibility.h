@@ -222,29 +222,57 @@ double exact_visible_form_factor(const Receiver& receiver, const Vec3* source, i
                                  const std::vector<Polygon>& occluders, const std::vector<int>& which,
                                  const std::vector<Vec3>* normals = nullptr, const ShaftCuller* solids = nullptr);
 
+// How many segments ray visibility casts per (point, patch).
+//  - A fixed count (`rays` > 0 in the calls below): that many, stratified.
+//  - Adaptive (`rays` == kAdaptiveRays): levels of 8², 16², 32², ... jittered segments, each level
+//    a fresh stratified estimate, stopping at the first level whose segments all agree (all
+//    blocked or all clear), or whose estimated standard error of V is at most
+//    tolerance × max(V, kRayErrorFloor), or at max_rays (the last level that fits). An occluder
+//    that every one of the 64 strata of the first level misses (smaller than about a 64th of the
+//    patch as seen from the point) can go unseen: that error is not in the estimate.
+// The estimated error: the variance of the weighted ratio estimator from the level's own segments,
+// Σ w_k² (v_k − V)² / (Σ w_k)², that of a ratio estimator from independent samples (Cochran,
+// "Sampling Techniques", 3rd ed., Wiley 1977, ch. 6); jittered samples err less (Mitchell
+// 1996, "Consequences of stratified sampling in graphics", SIGGRAPH '96), so it overstates.
+inline constexpr int kAdaptiveRays = 0;
+inline constexpr double kRayErrorFloor = 1e-3;
+struct RaySampling {
+  double tolerance = 1e-2;  // relative standard error of V at which adaptive sampling stops
+  int max_rays = 1024;      // largest adaptive level (32²); a fixed count is not capped
+};
+
+// What ray visibility did, added up by the callers: segments cast, and the estimated variance of
+// the visible form factors it returned (Σ F(dA_x -> P)² var(V) over the (point, patch) pairs).
+struct RayTally {
+  long long cast = 0;
+  double variance = 0.0;
+};
+
 // Ray-cast visibility with Embree 3 (see 2. above), over the scene faces. Thread-safe after construction; results
 // depend only on (seed, pair), never on the thread count.
 class RayVisibility {
  public:
-  explicit RayVisibility(const Scene& scene);
+  explicit RayVisibility(const Scene& scene, RaySampling sampling = {});
   ~RayVisibility();
   RayVisibility(const RayVisibility&) = delete;
   RayVisibility& operator=(const RayVisibility&) = delete;
 
   // Visible fraction between two patches (polygons of 3 or 4 corners with unit front normals):
-  // `rays` segments between Latin-hypercube stratified points on each, seeded by `stream`,
+  // `rays` (>= 1; no adaptive sampling) segments between Latin-hypercube stratified points on each, seeded by `stream`,
   // weighted by the form-factor integrand. 1 if no segment carries light.
   double patch_to_patch(const Vec3* receiver, int receiver_count, const Vec3& receiver_normal, const Vec3* source,
                         int source_count, const Vec3& source_normal, int rays, uint64_t stream) const;
 
   // Visible fraction V(x, P) from a point (on a surface with normal `normal`) to a patch:
-  // `rays` segments to jittered-stratified points on P (√rays × √rays strata when rays is a
-  // square, Latin hypercube otherwise), seeded by `stream`, weighted by the form-factor integrand.
-  // The error of a partly occluded pair falls as rays^(-3/4) (jittered sampling of a shadow with
-  // a smooth outline, Mitchell 1996): about 0.5% rms at the default 576 (tests/test_visibility_rays).
-  // `rays_used` (optional) receives the number of segments cast.
+  // segments to jittered-stratified points on P (√rays × √rays strata when rays is a square,
+  // Latin hypercube otherwise; kAdaptiveRays: the levels above), seeded by `stream`, weighted by
+  // the form-factor integrand. The error of a partly occluded pair falls as rays^(-3/4)
+  // (jittered sampling of a shadow with a smooth outline, Mitchell 1996): about 0.5% rms at 576
+  // (tests/test_visibility_rays). `variance` (optional) receives the estimated variance of V,
+  // `rays_used` (optional) the number of segments cast.
   double point_to_patch(const Vec3& point, const Vec3& normal, const Vec3* source, int source_count,
-                        const Vec3& source_normal, int rays, uint64_t stream, int* rays_used = nullptr) const;
+                        const Vec3& source_normal, int rays, uint64_t stream, int* rays_used = nullptr,
+                        double* variance = nullptr) const;
 
   // True if the open segment between a and b meets a face.
   bool blocked(const Vec3& a, const Vec3& b) const;
@@ -255,6 +283,7 @@ class RayVisibility {
   struct Impl;
   std::unique_ptr<Impl> impl_;
   double offset_ = 0.0;  // how far sample points are lifted off their surface, metres
+  RaySampling sampling_;
 };
 
 enum class VisibilityMethod { Rays, Exact };
@@ -301,10 +330,10 @@ class PointVisibility {
   void set_receiver(const Receiver& x);
   // F_vis(dA_x -> P) for patch `patch` of the mesh (corners b, nb; unit normal), given
   // `unoccluded` = F(dA_x -> P). `unshadowed` is set when no occluder shadows any of it (the
-  // result is then `unoccluded` itself). Ray mode casts `rays` segments seeded by `stream`
-  // (added to rays_cast); exact mode ignores both.
+  // result is then `unoccluded` itself). Ray mode casts `rays` segments (kAdaptiveRays: as
+  // many as RaySampling asks) seeded by `stream`, added to `tally`; exact mode ignores all three.
   double visible(int patch, const Vec3* b, int nb, const Vec3& normal, double unoccluded, int rays, uint64_t stream,
-                 long long& rays_cast, bool& unshadowed);
+                 RayTally& tally, bool& unshadowed);
   // What patch `patch`'s tile alone tells of the patch's shadow from the point (exact mode, a
   // flat tile): None, its shaft from the point holds no occluder, so visible() returns
   // `unoccluded` with `unshadowed` set; Full, its clipping left no visible piece, so visible()
@@ -328,13 +357,13 @@ class PointVisibility {
   // the patch's tile first (tile_shadow: None keeps `unoccluded`, Full gives 0, both without
   // the patch's corners), else visible() on the patch's corners. This is the step every
   // per-point loop takes: the fill's one-point rule (formfactors.h), the vertex gather and the
-  // point view factors (formfactors/point_factors.h). rays, stream, rays_cast: as visible().
+  // point view factors (formfactors/point_factors.h). rays, stream, tally: as visible().
   struct VisibleFactor {
     double value = 0.0;       // F_vis(dA_x -> P)
     bool unshadowed = false;  // no occluder shadows any of the patch: value == unoccluded
     bool by_tile = false;     // settled by the patch's tile alone (its corners were not read)
   };
-  VisibleFactor visible_factor(int patch, double unoccluded, int rays, uint64_t stream, long long& rays_cast) {
+  VisibleFactor visible_factor(int patch, double unoccluded, int rays, uint64_t stream, RayTally& tally) {
     switch (tile_shadow(patch)) {
       case TileShadow::None: return {unoccluded, true, true};
       case TileShadow::Full: return {0.0, false, true};
@@ -345,7 +374,7 @@ class PointVisibility {
     const Patch& p = mesh_->patches[size_t(patch)];
     VisibleFactor v;
     v.unshadowed = true;
-    v.value = visible(patch, corners, p.corner_count, p.normal, unoccluded, rays, stream, rays_cast, v.unshadowed);
+    v.value = visible(patch, corners, p.corner_count, p.normal, unoccluded, rays, stream, tally, v.unshadowed);
     return v;
   }
 
@@ -362,7 +391,8 @@ class PointVisibility {
 // What the form-factor fill and the vertex gather use: the culler plus one of the two methods.
 class Visibility {
  public:
-  Visibility(const Scene& scene, VisibilityMethod method);
+  // sampling: ray mode's adaptive sampling (RaySampling); exact mode ignores it.
+  Visibility(const Scene& scene, VisibilityMethod method, RaySampling sampling = {});
 
   VisibilityMethod method() const { return method_; }
   const ShaftCuller& culler() const { return culler_; }
@@ -372,11 +402,12 @@ class Visibility {
   // of a shaft containing x and P (an empty list returns `unoccluded`). The narrower shaft of x
   // and P is culled again first (the pair's shaft, from the fill, is tested once per pair), unless
   // `narrow` says the occluders are already those of x's own shaft. Ray mode
-  // casts `rays` segments (added to `rays_cast`) from x lifted off its surface (along
-  // receiver.approach when set, else along the normal); exact mode ignores rays and stream.
+  // casts `rays` segments (kAdaptiveRays: as RaySampling asks; added to `tally` with the
+  // result's estimated variance) from x lifted off its surface (along receiver.approach when
+  // set, else along the normal); exact mode ignores rays, stream and tally.
   double point_to_patch(const Receiver& receiver, const Vec3* source, int n, const Vec3& source_normal,
                         double unoccluded, const std::vector<int>& occluders, int rays, uint64_t stream,
-                        long long& rays_cast, bool narrow = false) const;
+                        RayTally& tally, bool narrow = false) const;
 
  private:
   VisibilityMethod method_;
