@@ -6,8 +6,10 @@
 // is found in a second, not after the fill).
 //
 // Inputs everywhere: `names` and `areas` (m²) of the n surfaces, F an n × n row-major matrix,
-// row i = from surface i. Values are written with 17 significant digits (round-trip exact)
-// except in the view3d form, which reproduces View3D's own text output.
+// row i = from surface i. Values are written as the shortest decimal that reads back as the same
+// double (std::to_chars: round-trip exact, at most 17 significant digits) except in the view3d
+// form, which reproduces View3D's own text output. Rows are formatted on every core (OpenMP), a
+// block of 256 at a time, and written in order.
 //
 //   csv     dense: header "name,area,<name_1>,...,<name_n>", then one line per row:
 //           "<name_i>,<A_i>,F_i1,...,F_in". Names with commas or quotes are CSV-quoted.
@@ -60,7 +62,7 @@ SparseWriteStats write_view_factors(AtomicOutput& out, ViewFactorFormat format, 
                                     const View3dOutput& view3d = {});
 
 // Point-to-surface factors (P points × G surfaces) as CSV: header "point,<name_1>,...,<name_G>",
-// then "<id>,F_1,...,F_G" per point, 17 significant digits, into `out`'s temporary file (not
+// then "<id>,F_1,...,F_G" per point, shortest round-trip decimals, into `out`'s temporary file (not
 // committed). Throws Error(Io).
 void write_point_factors(AtomicOutput& out, const std::vector<std::string>& point_ids,
                          const std::vector<std::string>& surface_names, const ViewFactorRows& P);

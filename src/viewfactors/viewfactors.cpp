@@ -131,6 +131,15 @@ ViewFactorMatrix aggregate(const FormFactors& F, const PatchMesh& mesh, const Ag
   // F_IJ = (1/A_I) Σ_{i∈I} A_i Σ_{j∈J} F_ij (Modest 2013, eq. 4.19).
   const int g = agg.size();
   ViewFactorMatrix out = ViewFactorMatrix::Zero(g, g);
+  if (g == mesh.size()) {
+    // One patch per surface (faces not split): F_IJ = F_ij itself, rows independent, on every core.
+#pragma omp parallel for schedule(dynamic, 16)
+    for (int i = 0; i < mesh.size(); ++i) {
+      double* row = out.row(agg.of_patch[i]).data();
+      F.for_each_in_row(i, [&](int j, double f) { row[agg.of_patch[j]] = f; });
+    }
+    return out;
+  }
   for (int i = 0; i < mesh.size(); ++i) {
     const int I = agg.of_patch[i];
     const double ai = mesh.patches[i].area;
@@ -148,9 +157,13 @@ MatrixChecks check_matrix(const ViewFactorMatrix& F, const std::vector<double>& 
   c.max_row_sum = -1e300;
   c.min_entry = F.minCoeff();
   c.max_entry = F.maxCoeff();
+  // Row sums on every core, then their extremes in row order (the worst row is the first found).
+  std::vector<double> sums(size_t(n), 0.0);
+#pragma omp parallel for schedule(static)
+  for (int i = 0; i < n; ++i) sums[size_t(i)] = F.row(i).sum();
   double worst = -1.0, total = 0.0;
   for (int i = 0; i < n; ++i) {
-    const double s = F.row(i).sum();
+    const double s = sums[size_t(i)];
     total += s;
     c.min_row_sum = std::min(c.min_row_sum, s);
     c.max_row_sum = std::max(c.max_row_sum, s);
@@ -158,11 +171,21 @@ MatrixChecks check_matrix(const ViewFactorMatrix& F, const std::vector<double>& 
       worst = std::abs(s - 1.0);
       c.worst_row = i;
     }
-    for (int j = i + 1; j < n; ++j)
-      c.reciprocity_error = std::max(c.reciprocity_error,
-                                     std::abs(areas[i] * F(i, j) - areas[j] * F(j, i)) / std::min(areas[i], areas[j]));
   }
   c.mean_row_sum = total / n;
+  // Reciprocity over the upper triangle in square tiles, so that F(j, i) (a column walk in the
+  // row-major matrix) stays in cache; a maximum does not depend on the order.
+  constexpr int kTile = 64;
+  const int tiles = (n + kTile - 1) / kTile;
+  double reciprocity = 0.0;
+#pragma omp parallel for schedule(dynamic, 1) reduction(max : reciprocity)
+  for (int ti = 0; ti < tiles; ++ti)
+    for (int tj = ti; tj < tiles; ++tj)
+      for (int i = ti * kTile; i < std::min(n, (ti + 1) * kTile); ++i)
+        for (int j = std::max(i + 1, tj * kTile); j < std::min(n, (tj + 1) * kTile); ++j)
+          reciprocity = std::max(reciprocity, std::abs(areas[size_t(i)] * F(i, j) - areas[size_t(j)] * F(j, i)) /
+                                                  std::min(areas[size_t(i)], areas[size_t(j)]));
+  c.reciprocity_error = reciprocity;
   return c;
 }
 
