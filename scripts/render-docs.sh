@@ -83,5 +83,5 @@ echo "solving the scanned object twice (about 45 s each)"
 "$photometria" solve "$work/scanned.obj" -o "$work/faceted.vtu" --crease-angle 0 --quiet
 "$photometria" solve "$work/scanned.obj" -o "$work/smooth.vtu" --quiet
 render "$work/faceted.vtu" "$work/smooth.vtu" --output docs/images/crease-angle.png --size 600x450 \
-    --camera-position -0.2,0.75,1.9 --focal-point -0.45,0.25,0.55 --view-angle 30 \
+    --camera-position=-0.2,0.8,1.9 --focal-point=-0.42,0.27,0.5 --view-angle 34 \
     --label "crease angle 0°" --label "$default_label"

@@ -32,7 +32,8 @@ Defaults:
                     bounding box's x-y extent fills the picture with a 5% margin. For the
                     shipped Cornell box this is the classic front view
     --camera-position x,y,z / --focal-point x,y,z / --view-up x,y,z / --view-angle deg
-                    override any part of that
+                    override any part of that (a value starting with '-' needs the '=' form:
+                    --camera-position=-0.2,0.8,1.9)
     --background    0,0,0 (r,g,b in [0, 1])
 
 Errors (missing file, not a .vtu, no 3-component `radiosity` array, bad option) are one line on
