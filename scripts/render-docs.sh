@@ -55,8 +55,9 @@ if ! grep -q -- '--crease-angle' <<<"$help"; then
     exit 0
 fi
 # The default angle, for the label, from the help line (e.g. "... (default 30)").
-default_angle=$(grep -A3 -- '--crease-angle' <<<"$help" | grep -o -i 'default[^0-9]*[0-9.]\+' | head -n1 | grep -o '[0-9.]\+$' || true)
-default_label="default crease angle${default_angle:+ (${default_angle}°)}"
+default_angle=$(awk '/--crease-angle/ {on = 1; print; next} on && /^ *-/ {exit} on {print}' <<<"$help" \
+    | grep -o -i 'default[^0-9]*[0-9.]\+' | head -n1 | grep -o '[0-9.]\+$' || true)
+default_label="default crease angle"
 [[ -n $default_angle ]] && default_label="crease angle ${default_angle}°"
 
 python3 meshes/make_meshes.py --scanned-object "$work/scanned.obj" >/dev/null
@@ -79,7 +80,7 @@ if shift is None:
     sys.exit("render-docs.sh: no scannedObject group in " + path)
 open(path, "w").write("\n".join(lines) + "\n")
 EOF
-echo "solving the scanned object twice (about 45 s each)"
+echo "solving the scanned object twice (minutes each: about 14 min each on 2 busy cores)"
 "$photometria" solve "$work/scanned.obj" -o "$work/faceted.vtu" --crease-angle 0 --quiet
 "$photometria" solve "$work/scanned.obj" -o "$work/smooth.vtu" --quiet
 render "$work/faceted.vtu" "$work/smooth.vtu" --output docs/images/crease-angle.png --size 600x450 \
