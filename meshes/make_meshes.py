@@ -246,7 +246,7 @@ def write_scanned_object(path, rings=41, segments=50):
     with open(os.path.join(HERE, "cornell_box.obj")) as f:
         box = f.read()
     box_vertices = sum(1 for line in box.splitlines() if re.match(r"v\s", line))
-    cx, cz, radius = 0.35, 0.5, 0.25
+    cx, cz, radius = -0.45, 0.55, 0.25  # free floor: clear of both boxes, in view of the light and the walls
 
     def point(i, j):
         # Polar angle t from the bottom pole (i = 0) to the top (i = rings), azimuth p.

@@ -62,24 +62,6 @@ default_label="default crease angle"
 
 python3 meshes/make_meshes.py --scanned-object "$work/scanned.obj" >/dev/null
 cp meshes/cornell_box.mtl "$work/"
-# make_meshes.py stands the sphere at x = 0.35, z = 0.5, inside the short box's footprint: move
-# it (every vertex after `g scannedObject`) to free floor in front of the tall box.
-python3 - "$work/scanned.obj" <<'EOF'
-import sys
-path, target = sys.argv[1], (-0.45, 0.55)
-lines, moving, shift = open(path).read().splitlines(), False, None
-for k, line in enumerate(lines):
-    if line.startswith("g scannedObject"):
-        moving = True
-    elif moving and line.startswith("v "):
-        x, y, z = (float(v) for v in line.split()[1:4])
-        if shift is None:  # the first vertex is the bottom pole, on the floor below the centre
-            shift = (target[0] - x, target[1] - z)
-        lines[k] = "v %.9g %.9g %.9g" % (x + shift[0], y, z + shift[1])
-if shift is None:
-    sys.exit("render-docs.sh: no scannedObject group in " + path)
-open(path, "w").write("\n".join(lines) + "\n")
-EOF
 echo "solving the scanned object twice (minutes each: about 14 min each on 2 busy cores)"
 "$photometria" solve "$work/scanned.obj" -o "$work/faceted.vtu" --crease-angle 0 --quiet
 "$photometria" solve "$work/scanned.obj" -o "$work/smooth.vtu" --quiet

@@ -41,7 +41,8 @@ void append_printf_like(std::string& out, double v, std::chars_format format, in
 // and written in order in one write per row: formatting, not the disk, is what costs (about
 // 5 M values/s per core with printf). A full disk stops the run at the next block.
 template <class FormatRow>
-void write_rows(AtomicOutput& atomic, int rows, const FormatRow& format_row) {
+void write_rows(AtomicOutput& atomic, int rows, const FormatRow& format_row,
+                const std::function<void(double)>& progress = nullptr) {
   constexpr int kBlock = 256;
   std::vector<std::string> text(size_t(std::min(rows, kBlock)));
   std::ofstream& out = atomic.stream();
@@ -54,6 +55,7 @@ void write_rows(AtomicOutput& atomic, int rows, const FormatRow& format_row) {
     }
     for (int k = 0; k < count; ++k) out.write(text[size_t(k)].data(), std::streamsize(text[size_t(k)].size()));
     atomic.check_stream();
+    if (progress) progress(double(first + count) / rows);
   }
 }
 
@@ -103,7 +105,8 @@ bool view_factor_format_from_name(const std::string& name, ViewFactorFormat& out
 
 SparseWriteStats write_view_factors(AtomicOutput& atomic, ViewFactorFormat format,
                                     const std::vector<std::string>& names, const std::vector<double>& areas,
-                                    const ViewFactorRows& F, double threshold, const View3dOutput& view3d) {
+                                    const ViewFactorRows& F, double threshold, const View3dOutput& view3d,
+                                    const std::function<void(double)>& progress) {
   SparseWriteStats st;
   const int n = static_cast<int>(F.rows());
   {
@@ -113,17 +116,20 @@ SparseWriteStats write_view_factors(AtomicOutput& atomic, ViewFactorFormat forma
         std::string line = "name,area";
         for (const std::string& s : names) line.append(1, ',').append(csv_cell(s));
         out << line << "\n";
-        write_rows(atomic, n, [&](int i, std::string& row) {
-          row.reserve(size_t(n) * 12);
-          row = csv_cell(names[size_t(i)]);
-          row.push_back(',');
-          append_shortest(row, areas[size_t(i)]);
-          for (int j = 0; j < n; ++j) {
-            row.push_back(',');
-            append_shortest(row, F(i, j));
-          }
-          row.push_back('\n');
-        });
+        write_rows(
+            atomic, n,
+            [&](int i, std::string& row) {
+              row.reserve(size_t(n) * 12);
+              row = csv_cell(names[size_t(i)]);
+              row.push_back(',');
+              append_shortest(row, areas[size_t(i)]);
+              for (int j = 0; j < n; ++j) {
+                row.push_back(',');
+                append_shortest(row, F(i, j));
+              }
+              row.push_back('\n');
+            },
+            progress);
         break;
       }
       case ViewFactorFormat::Sparse: {
@@ -133,25 +139,29 @@ SparseWriteStats write_view_factors(AtomicOutput& atomic, ViewFactorFormat forma
         // Per row, from the formatting threads; summed in row order afterwards.
         std::vector<double> dropped(size_t(n), 0.0);
         std::vector<long long> dropped_count(size_t(n), 0), written(size_t(n), 0);
-        write_rows(atomic, n, [&](int i, std::string& row) {
-          char index[16];
-          const size_t index_length = size_t(std::to_chars(index, index + sizeof index, i).ptr - index);
-          for (int j = 0; j < n; ++j) {
-            const double f = F(i, j);
-            if (f == 0.0) continue;
-            if (f < threshold) {
-              dropped[size_t(i)] += f;
-              ++dropped_count[size_t(i)];
-              continue;
-            }
-            row.append(index, index_length).push_back(',');
-            char column[16];
-            row.append(column, size_t(std::to_chars(column, column + sizeof column, j).ptr - column)).push_back(',');
-            append_shortest(row, f);
-            row.push_back('\n');
-            ++written[size_t(i)];
-          }
-        });
+        write_rows(
+            atomic, n,
+            [&](int i, std::string& row) {
+              char index[16];
+              const size_t index_length = size_t(std::to_chars(index, index + sizeof index, i).ptr - index);
+              for (int j = 0; j < n; ++j) {
+                const double f = F(i, j);
+                if (f == 0.0) continue;
+                if (f < threshold) {
+                  dropped[size_t(i)] += f;
+                  ++dropped_count[size_t(i)];
+                  continue;
+                }
+                row.append(index, index_length).push_back(',');
+                char column[16];
+                row.append(column, size_t(std::to_chars(column, column + sizeof column, j).ptr - column))
+                    .push_back(',');
+                append_shortest(row, f);
+                row.push_back('\n');
+                ++written[size_t(i)];
+              }
+            },
+            progress);
         for (int i = 0; i < n; ++i) {
           st.written += written[size_t(i)];
           st.dropped += dropped_count[size_t(i)];
@@ -192,14 +202,17 @@ SparseWriteStats write_view_factors(AtomicOutput& atomic, ViewFactorFormat forma
           field(line, areas[size_t(i)], std::chars_format::general, 6);  // %g
         }
         out << line << "\n";
-        write_rows(atomic, n, [&](int i, std::string& row) {
-          row.reserve(size_t(n) * 9);
-          for (int j = 0; j < n; ++j) {
-            if (j) row.push_back(' ');
-            field(row, F(i, j), std::chars_format::fixed, 6);  // %.6f
-          }
-          row.push_back('\n');
-        });
+        write_rows(
+            atomic, n,
+            [&](int i, std::string& row) {
+              row.reserve(size_t(n) * 9);
+              for (int j = 0; j < n; ++j) {
+                if (j) row.push_back(' ');
+                field(row, F(i, j), std::chars_format::fixed, 6);  // %.6f
+              }
+              row.push_back('\n');
+            },
+            progress);
         line.clear();
         const bool have_emit = view3d.emissivities.size() == static_cast<size_t>(n);
         for (int i = 0; i < n; ++i) {

@@ -27,6 +27,7 @@
 //           No names, no title: View3D's readers take numbers only.
 #pragma once
 #include <Eigen/Core>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -56,10 +57,12 @@ struct View3dOutput {
 
 // Writes F into `out`'s temporary file (not committed). Throws Error(Io) naming out.target()
 // when it cannot be written. `threshold` only applies to Sparse; `view3d` only to View3d.
-// Returns the drop statistics (all zero for the dense forms).
+// Returns the drop statistics (all zero for the dense forms). `progress` (optional) is called with
+// the fraction of rows written, after each block (from the calling thread).
 SparseWriteStats write_view_factors(AtomicOutput& out, ViewFactorFormat format, const std::vector<std::string>& names,
                                     const std::vector<double>& areas, const ViewFactorRows& F, double threshold = 0.0,
-                                    const View3dOutput& view3d = {});
+                                    const View3dOutput& view3d = {},
+                                    const std::function<void(double)>& progress = nullptr);
 
 // Point-to-surface factors (P points × G surfaces) as CSV: header "point,<name_1>,...,<name_G>",
 // then "<id>,F_1,...,F_G" per point, shortest round-trip decimals, into `out`'s temporary file (not

@@ -80,7 +80,9 @@ ViewFactorJobResult run_view_factor_job(const ViewFactorJob& job) {
     v3.enclosure = job.enforcement == Enforcement::Closure || job.enforcement == Enforcement::Both ? 1 : 0;
     v3.emissivities = view3d_emissivities_of(job.scene, scene, r.mesh, agg);
   }
-  res.sparse = write_view_factors(main_out, job.format, agg.names, agg.areas, res.F, job.threshold, v3);
+  std::function<void(double)> writing;
+  if (opt.progress) writing = [&opt](double f) { opt.progress("writing", f); };
+  res.sparse = write_view_factors(main_out, job.format, agg.names, agg.areas, res.F, job.threshold, v3, writing);
   if (points_out) {
     const ViewFactorMatrix P = point_view_factors(points, r.mesh, agg, r.visibility.get(), opt);
     std::vector<std::string> ids;
