@@ -140,6 +140,35 @@ bool RayVisibility::blocked(const Vec3& a, const Vec3& b) const {
   return ray.tfar < 0.0f;  // Embree sets tfar = -inf on a hit
 }
 
+void RayVisibility::blocked_from(const Vec3& a, const Vec3* b, int count, bool* out) const {
+  RTCRay8 rays;
+  alignas(32) int valid[8];
+  for (int k = 0; k < 8; ++k) {
+    const Vec3 d = k < count ? Vec3(b[k] - a) : Vec3::UnitZ();
+    const double len = d.norm();
+    // As blocked(): segments shorter than twice the offset are never blocked.
+    valid[k] = k < count && len > 2 * offset_ ? -1 : 0;
+    out[k] = false;
+    rays.org_x[k] = float(a.x());
+    rays.org_y[k] = float(a.y());
+    rays.org_z[k] = float(a.z());
+    rays.dir_x[k] = float(d.x() / len);
+    rays.dir_y[k] = float(d.y() / len);
+    rays.dir_z[k] = float(d.z() / len);
+    rays.tnear[k] = float(offset_);
+    rays.tfar[k] = valid[k] ? float(len - offset_) : 0.0f;
+    rays.time[k] = 0.0f;
+    rays.mask[k] = 0xFFFFFFFFu;
+    rays.id[k] = unsigned(k);
+    rays.flags[k] = 0;
+  }
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  rtcOccluded8(valid, impl_->scene, &context, &rays);
+  for (int k = 0; k < count; ++k) out[k] = valid[k] && rays.tfar[k] < 0.0f;  // tfar = -inf on a hit
+}
+
 double RayVisibility::patch_to_patch(const Vec3* r, int rn, const Vec3& r_normal, const Vec3* s, int sn,
                                      const Vec3& s_normal, int rays, uint64_t stream) const {
   SplitMix64 rng{stream};
@@ -172,23 +201,34 @@ double RayVisibility::point_to_patch(const Vec3& p, const Vec3& normal, const Ve
     bool unanimous = true;
   };
   std::vector<double> w, v;
+  std::vector<Vec3> ends;
   auto estimate = [&](int k) {
     const int m = static_cast<int>(std::lround(std::sqrt(double(k))));
     if (m * m == k) jittered_grid(m, rng, b);
     else latin_hypercube(k, rng, b);
     w.clear();
     v.clear();
+    ends.clear();
     double seen = 0.0, total = 0.0;
     for (int q = 0; q < k; ++q) {
       const Vec3 y = map_to_patch(s, sn, b[q].first, b[q].second);
       const double wq = transfer_weight(p, normal, y, s_normal);
       if (wq == 0.0) continue;
       total += wq;
-      ++used;
-      const double clear = blocked(x, y + 10 * offset_ * s_normal) ? 0.0 : 1.0;
-      seen += wq * clear;
       w.push_back(wq);
-      v.push_back(clear);
+      ends.push_back(y + 10 * offset_ * s_normal);
+    }
+    used += static_cast<int>(ends.size());
+    // The segments in packets of 8, in sample order.
+    for (size_t first = 0; first < ends.size(); first += 8) {
+      bool hit[8];
+      const int count = static_cast<int>(std::min<size_t>(8, ends.size() - first));
+      blocked_from(x, ends.data() + first, count, hit);
+      for (int q = 0; q < count; ++q) {
+        const double clear = hit[q] ? 0.0 : 1.0;
+        seen += w[first + size_t(q)] * clear;
+        v.push_back(clear);
+      }
     }
     Estimate e;
     if (!(total > 0.0)) return e;

@@ -276,6 +276,9 @@ class RayVisibility {
 
   // True if the open segment between a and b meets a face.
   bool blocked(const Vec3& a, const Vec3& b) const;
+  // blocked(a, b[k]) for k < count <= 8 into out[k], as one packet of rays (segments from one
+  // point to one patch are coherent: Embree traces such packets faster than single rays).
+  void blocked_from(const Vec3& a, const Vec3* b, int count, bool* out) const;
 
   double surface_offset() const { return offset_; }
 
