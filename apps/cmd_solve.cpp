@@ -48,7 +48,7 @@ struct SolveArgs {
   std::optional<double> max_edge, max_area, tolerance;
   std::optional<int> quadrature, max_iterations;
   std::optional<std::string> rays;
-  std::optional<double> accuracy;
+  std::optional<double> accuracy, crease_angle;
   std::optional<std::string> visibility;
   std::optional<std::string> solver;
   std::optional<std::string> max_memory;
@@ -107,6 +107,9 @@ int run_solve(const SolveArgs& a) {
   opt.quadrature = setting(a.quadrature, st, "quadrature", 1);
   opt.accuracy = setting(a.accuracy, st, "accuracy", 0.0);
   if (opt.accuracy < 0 || opt.accuracy >= 1) pm::throw_bad_input("--accuracy must be in [0, 1)");
+  opt.crease_angle_degrees = setting(a.crease_angle, st, "crease_angle", 30.0);
+  if (!(opt.crease_angle_degrees >= 0 && opt.crease_angle_degrees < 180))
+    pm::throw_bad_input("crease_angle must be in [0, 180) degrees");
   // A scene file may give "rays" as a number or as "auto".
   const bool rays_number = st.contains("rays") && st.at("rays").is_number_integer();
   opt.rays = pm::parse_ray_count(rays_number && !a.rays ? st.at("rays").dump()
@@ -167,6 +170,11 @@ Command add_solve_command(CLI::App& app) {
                    "Relative accuracy of patch-to-patch factors: rule chosen per pair (overrides --quadrature "
                    "for pairs nothing can block; default 0 = off)")
       ->check(options::real_in(0, 1, false, true));
+  solve
+      ->add_option("--crease-angle", s.crease_angle,
+                   "Faces meeting at less than this angle (degrees) share output points with a smoothed normal; "
+                   "0 = every crease sharp; OBJ smoothing groups win over it (default 30)")
+      ->check(options::real_in(0, 180, false, true));
   solve->add_option("--visibility", s.visibility, "auto | none | rays | exact (default auto)");
   solve
       ->add_option("--rays", s.rays,

@@ -311,3 +311,18 @@ TEST(Cli, RaySamplingIsAdaptiveByDefaultAndReportsItsError) {
   ASSERT_EQ(exact.exit_code, 0) << exact.err;
   EXPECT_EQ(nlohmann::json::parse(exact.out)["visibility"]["ray_sampling"], "");
 }
+
+// --crease-angle: the Cornell box's left wall is not planar and is split into two triangles on
+// load; at the default 30° the two share their diagonal's points, at 0 they do not.
+TEST(Cli, CreaseAngleJoinsTheSplitWallsPoints) {
+  const std::string out = (scratch() / "crease.vtu").string();
+  const std::string base = "solve " + mesh("cornell_box.obj") + " -o " + out + " --json --max-edge 0.5";
+  const CliRun smooth = run(base), sharp = run(base + " --crease-angle 0");
+  ASSERT_EQ(smooth.exit_code, 0) << smooth.err;
+  ASSERT_EQ(sharp.exit_code, 0) << sharp.err;
+  const auto s = nlohmann::json::parse(smooth.out), h = nlohmann::json::parse(sharp.out);
+  EXPECT_EQ(s["crease_angle_degrees"], 30.0);
+  EXPECT_EQ(h["crease_angle_degrees"], 0.0);
+  EXPECT_LT(s["output_points"].get<int>(), h["output_points"].get<int>());
+  EXPECT_EQ(photometria::read_vtu(out).points.size(), h["output_points"].get<size_t>());
+}

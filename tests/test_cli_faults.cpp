@@ -408,6 +408,7 @@ TEST(OptionFaults, EveryNumericOptionIsRangeChecked) {
       {solve, "--max-area", {"-0.5", "nan", "inf"}},
       {solve, "--quadrature", {"0", "17", "-2", "1.5"}},
       {solve, "--accuracy", {"-0.1", "1", "nan"}},
+      {solve, "--crease-angle", {"-5", "180", "200", "abc", "nan"}},
       {solve, "--rays", {"0", "-5", "99999999999", "abc", "auto5", "1.5"}},
       {solve, "--seed", {"-1", "x"}},
       {solve, "--tolerance", {"0", "-1e-8", "nan", "inf"}},

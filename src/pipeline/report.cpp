@@ -97,6 +97,7 @@ nlohmann::json summary_json(const Scene& scene, const SolveSummary& s) {
       {"residual", s.solver.residual},          {"tolerance", s.tolerance},    {"channels", s.solver.channels_solved},
       {"converged", s.solver.converged}};
   j["output_points"] = s.output_points;
+  j["crease_angle_degrees"] = s.crease_angle_degrees;
   j["vertex_gather"] = {{"pairs_evaluated", s.vertex_pairs_evaluated},
                         {"pairs_tested", s.vertex_pairs_tested},
                         {"pairs_culled", s.vertex_pairs_culled},
@@ -164,7 +165,7 @@ std::string summary_table(const Scene& scene, const SolveSummary& s) {
                                                                                                          : " products")
                 << ", residual " << std::setprecision(3) << s.solver.residual << ", " << s.solver.channels_solved
                 << (s.solver.channels_solved == 1 ? " channel (all grey)" : " channels") << "\n";
-  row("output points") << s.output_points << "\n";
+  row("output points") << s.output_points << " (crease angle " << s.crease_angle_degrees << "°)\n";
   row("emitted W") << rgb(s.energy.emitted) << "\n";
   if (s.lights) row("from lights W") << rgb(s.energy.direct_in) << " (" << s.lights << " analytic lights)\n";
   else row("lights") << "none: direct-light pass skipped\n";

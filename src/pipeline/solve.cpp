@@ -56,36 +56,78 @@ void fill_materials(const Scene& scene, SolveResult& r) {
   }
 }
 
-// Output points: one per (patch vertex, material, normal); patches sharing all three share it.
-void split_output_points(const Scene& scene, SolveResult& r) {
+// Whether the corners of patches a and b at one vertex share an output point (solve.h
+// SolveOptions::crease_angle_degrees): the same material, and then the same plane, or the same
+// nonzero smoothing group where the file gave groups, or else normals within the crease angle.
+bool smooth_across(const Scene& scene, const Patch& a, const Patch& b, double cos_crease) {
+  const Face &fa = scene.faces[size_t(a.face)], &fb = scene.faces[size_t(b.face)];
+  if (fa.material != fb.material) return false;
+  const double cos_ab = a.normal.dot(b.normal);
+  if (a.face == b.face || cos_ab > 1.0 - 1e-9) return true;
+  if (fa.smoothing_group >= 0 && fb.smoothing_group >= 0)
+    return fa.smoothing_group > 0 && fa.smoothing_group == fb.smoothing_group;
+  return cos_ab >= cos_crease;
+}
+
+// The interior angle of patch p at its corner k, radians.
+double corner_angle(const PatchMesh& mesh, const Patch& p, int k) {
+  const Vec3& v = mesh.points[size_t(p.corners[size_t(k)])];
+  const Vec3 prev = mesh.points[size_t(p.corners[size_t((k + p.corner_count - 1) % p.corner_count)])] - v;
+  const Vec3 next = mesh.points[size_t(p.corners[size_t((k + 1) % p.corner_count)])] - v;
+  return std::atan2(prev.cross(next).norm(), prev.dot(next));
+}
+
+// Output points: at each patch vertex, the corners of the patches there are joined into clusters
+// (smooth_across, closed transitively: a smooth fan is one cluster, a cube corner three), one
+// point per cluster. Its normal is the angle-weighted mean of the cluster's patch normals,
+// n = normalize(Σ α_i n_i) with α_i the patch's interior angle at the vertex (Thürmer & Wüthrich,
+// "Computing vertex normals from polygonal meshes", J. Graphics Tools 3(1), 1998, eq. 1): it does
+// not depend on how the faces around the vertex are split into triangles.
+void split_output_points(const Scene& scene, double crease_angle_degrees, SolveResult& r) {
   const PatchMesh& mesh = r.mesh;
-  std::vector<std::vector<int>> at_vertex(mesh.points.size());
-  std::vector<Vec3> approach_sum;
-  r.cells.assign(mesh.size(), {});
+  const double cos_crease = crease_angle_degrees > 0.0 ? std::cos(crease_angle_degrees * M_PI / 180.0) : 2.0;
+  std::vector<std::vector<std::pair<int, int>>> at_vertex(mesh.points.size());  // (patch, corner)
+  r.cells.assign(size_t(mesh.size()), {});
   for (int i = 0; i < mesh.size(); ++i) {
-    const Patch& p = mesh.patches[i];
-    const int material = scene.faces[p.face].material;
-    for (int k = 0; k < p.corner_count; ++k) {
-      const int v = p.corners[k];
-      int found = -1;
-      for (int o : at_vertex[v])
-        if (r.points[o].material == material && r.points[o].normal.dot(p.normal) > 1.0 - 1e-9) {
-          found = o;
-          break;
-        }
-      if (found < 0) {
-        found = static_cast<int>(r.points.size());
-        r.points.push_back({mesh.points[v], p.normal, Vec3::Zero(), material});
-        approach_sum.push_back(Vec3::Zero());
-        at_vertex[v].push_back(found);
-      }
-      approach_sum[found] += p.centroid - mesh.points[v];
-      r.cells[i].push_back(found);
-    }
+    const Patch& p = mesh.patches[size_t(i)];
+    r.cells[size_t(i)].assign(size_t(p.corner_count), -1);
+    for (int k = 0; k < p.corner_count; ++k) at_vertex[size_t(p.corners[size_t(k)])].emplace_back(i, k);
   }
-  for (size_t o = 0; o < r.points.size(); ++o) {
-    Vec3 u = approach_sum[o] - approach_sum[o].dot(r.points[o].normal) * r.points[o].normal;
-    r.points[o].approach = u.norm() > 0 ? Vec3(u.normalized()) : Vec3::Zero();
+  std::vector<int> parent;
+  for (size_t v = 0; v < at_vertex.size(); ++v) {
+    const auto& corners = at_vertex[v];
+    const int n = static_cast<int>(corners.size());
+    parent.resize(size_t(n));
+    for (int a = 0; a < n; ++a) parent[size_t(a)] = a;
+    auto root = [&](int a) {
+      while (parent[size_t(a)] != a) a = parent[size_t(a)] = parent[size_t(parent[size_t(a)])];
+      return a;
+    };
+    for (int a = 0; a < n; ++a)
+      for (int b = a + 1; b < n; ++b)
+        if (root(a) != root(b) && smooth_across(scene, mesh.patches[size_t(corners[size_t(a)].first)],
+                                                mesh.patches[size_t(corners[size_t(b)].first)], cos_crease))
+          parent[size_t(root(a))] = root(b);
+    for (int a = 0; a < n; ++a) {
+      if (root(a) != a) continue;
+      Vec3 normal_sum = Vec3::Zero(), approach_sum = Vec3::Zero();
+      const int o = static_cast<int>(r.points.size());
+      int material = 0;
+      for (int b = 0; b < n; ++b) {
+        if (root(b) != a) continue;
+        const auto [i, k] = corners[size_t(b)];
+        const Patch& p = mesh.patches[size_t(i)];
+        normal_sum += corner_angle(mesh, p, k) * p.normal;
+        approach_sum += p.centroid - mesh.points[v];
+        material = scene.faces[size_t(p.face)].material;
+        r.cells[size_t(i)][size_t(k)] = o;
+      }
+      // A cluster whose normals cancel (a two-sided sheet in one smoothing group) keeps one of them.
+      const Vec3 normal = normal_sum.norm() > 1e-12 ? Vec3(normal_sum.normalized())
+                                                    : mesh.patches[size_t(corners[size_t(a)].first)].normal;
+      const Vec3 u = approach_sum - approach_sum.dot(normal) * normal;
+      r.points.push_back({mesh.points[v], normal, u.norm() > 0 ? Vec3(u.normalized()) : Vec3::Zero(), material});
+    }
   }
 }
 
@@ -116,6 +158,17 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
     return std::tie(pa.x(), pa.y(), pa.z(), a) < std::tie(pb.x(), pb.y(), pb.z(), b);
   };
   std::sort(order.begin(), order.end(), position_less);
+  // Each point's own patches (those whose cells name it), as one list per point.
+  std::vector<int> own_start(size_t(np) + 1, 0), own_patches;
+  for (const std::vector<int>& cell : r.cells)
+    for (int o : cell) ++own_start[size_t(o) + 1];
+  for (int o = 0; o < np; ++o) own_start[size_t(o) + 1] += own_start[size_t(o)];
+  own_patches.resize(size_t(own_start[size_t(np)]));
+  {
+    std::vector<int> fill(own_start.begin(), own_start.end() - 1);
+    for (int i = 0; i < static_cast<int>(r.cells.size()); ++i)
+      for (int o : r.cells[size_t(i)]) own_patches[size_t(fill[size_t(o)]++)] = i;
+  }
   for (int k = 0; k < np; ++k)
     if (k == 0 || r.points[size_t(order[size_t(k)])].position != r.points[size_t(order[size_t(k - 1)])].position)
       group_start.push_back(k);
@@ -133,7 +186,13 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
       const Receiver receiver{x.position, x.normal, x.approach};
       // Only rays use the pair's stream.
       auto stream_of = [&](int j) { return pair_stream(opt.seed ^ 0x5eedULL, uint64_t(o), uint64_t(j)); };
-      factors.for_each_visible(receiver, stream_of, counts, [&](int j, double f) { h += f * r.radiosity.row(j); });
+      // The point's own patches (its cluster) are the surface it lies on: they add nothing (with
+      // a smoothed normal they may rise above its horizon, and Lambert's limit would count them).
+      const int* own = own_patches.data() + own_start[size_t(o)];
+      const int* own_end = own_patches.data() + own_start[size_t(o) + 1];
+      factors.for_each_visible(receiver, stream_of, counts, [&](int j, double f) {
+        if (std::find(own, own_end, j) == own_end) h += f * r.radiosity.row(j);
+      });
       if (!direct.empty()) h += direct.at(x.position, x.normal).matrix().transpose();
       const Material& m = scene.materials[x.material];
       r.point_irradiance.row(o) = h;
@@ -292,8 +351,9 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
   s.energy = energy_balance(row_sums, direct, r);
   timer.lap("solve");
 
-  split_output_points(scene, r);
+  split_output_points(scene, opt.crease_angle_degrees, r);
   s.output_points = static_cast<int>(r.points.size());
+  s.crease_angle_degrees = opt.crease_angle_degrees;
   gather_at_points(scene, vis.get(), lights, opt, r);
   timer.lap("vertex_gather");
   // Never hand a NaN on to a result file: with finite, checked inputs this is a bug (exit 4).

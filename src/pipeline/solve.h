@@ -5,8 +5,9 @@
 // what it did in SolveSummary. Per-vertex values follow Baum, Rushmeier & Winget 1989: the
 // irradiance is gathered at the vertex itself from the converged patch radiosities,
 //   H(x) = Σ_j F(dA_x -> P_j) V(x, P_j) B_j,   B(x) = E + ρ H(x),
-// not averaged from neighbouring cells. Output points are split where faces meet at a crease or
-// a material change, so every point has one normal and one material.
+// not averaged from neighbouring cells. Output points are split where faces meet at a crease
+// (sharper than the crease angle, or across smoothing groups) or a material change, so every
+// point has one normal and one material; faces meeting smoothly share a point.
 #pragma once
 
 #include <functional>
@@ -31,6 +32,11 @@ struct SolveOptions {
   int rays = kAdaptiveRays;  // rays per (receiver point, patch) in ray mode (fill and vertex gather);
                              // kAdaptiveRays: until the estimated error meets `accuracy` (else 1e-2)
   uint64_t seed = 1;         // ray sampling seed
+  // Output points (Baum et al. 1989 vertex gather): patches meeting at a vertex share one point,
+  // with their angle-weighted mean normal, when their normals differ by less than this angle
+  // (degrees, in [0, 180); 0: only coplanar patches share, every crease is sharp). The same
+  // material is required. Smoothing groups from the file (Face::smoothing_group) win over the angle.
+  double crease_angle_degrees = 30.0;
   SolverOptions solver;
   int threads = 0;  // 0 = all cores
   // Refuse (BadInput) before the form-factor fill when the estimated memory (pipeline/memory.h,
@@ -72,6 +78,7 @@ struct SolveSummary {
   SolverReport solver;
   double tolerance = 0.0;
   int output_points = 0;
+  double crease_angle_degrees = 0.0;  // SolveOptions::crease_angle_degrees used
   long long vertex_pairs_evaluated = 0;
   long long vertex_rays_cast = 0;
   long long vertex_pairs_tested = 0, vertex_pairs_culled = 0;  // shaft tests in the gather

@@ -102,6 +102,11 @@ std::string trimmed(const std::string& s) {
 void add_faces(RawScene& raw, const std::vector<tinyobj::shape_t>& shapes, const ObjScan& scan,
                const std::vector<int>& mtl_index, const LoadOptions& options, const std::string& path) {
   int face_no = 0;
+  // tinyobjloader gives 0 both for `s off` and where the file has no `s` line: the groups count
+  // only in a file that names some nonzero one.
+  bool with_smoothing_groups = false;
+  for (const tinyobj::shape_t& shape : shapes)
+    for (unsigned id : shape.mesh.smoothing_group_ids) with_smoothing_groups = with_smoothing_groups || id != 0;
   for (const tinyobj::shape_t& shape : shapes) {
     const std::string name = trimmed(shape.name);
     const int group = add_group(raw.scene, name.empty() ? file_stem(path) : name);
@@ -117,6 +122,7 @@ void add_faces(RawScene& raw, const std::vector<tinyobj::shape_t>& shapes, const
                           : fallback_material(raw, scan.face_material.at(static_cast<size_t>(face_no)), options, path);
       face.group = group;
       face.source_face = face_no;
+      if (with_smoothing_groups) face.smoothing_group = long(shape.mesh.smoothing_group_ids.at(f));
       raw.scene.faces.push_back(std::move(face));
     }
   }

@@ -50,6 +50,9 @@ struct Face {
   int source_face = 0;            // index of the face in the input (split faces share it)
   bool obstruction_only = false;  // blocks light but neither emits nor receives (View3D `O` surface):
                                   // no patches, still an occluder for visibility
+  // OBJ smoothing group (`s N`): -1 when the file gives none (the crease angle decides), 0 for
+  // `s off` (sharp against every other face), N > 0: faces of one group share output points.
+  long smoothing_group = -1;
 };
 
 // What loading did to the input, reported in the solve summary.

@@ -24,11 +24,13 @@ enum class VisibilityMode { Auto, None, Rays, Exact };
 // with m the mean count of candidate occluders (ShaftCuller::occluders) in the shafts of the
 // sampled face pairs that have any. Measured on the project's 2-core VM (docs/performance.md
 // "How auto chooses"): 1.7 µs per exactly clipped point on the 1,666-face room, whose shafts
-// hold 3.2 occluders on average, and 0.26 µs per single ray on the same room, halved by casting
-// the rays of a point and patch in packets of 8 (0.155 -> 0.076 core-µs per ray on the Cornell
-// box, RayVisibility::blocked_from).
+// hold 3.2 occluders on average, and 0.26 µs per single ray on the same room. Packets of 8
+// (RayVisibility::blocked_from) halved the time per ray on the Cornell box (0.155 -> 0.076
+// core-µs), but the model keeps 0.26: with 0.13 it picked rays for the bench room at 0.5 m
+// (446 patches), which then took 6.5 s against 0.49 s with clipping (the rays' per-point costs
+// and their count on partly hidden pairs are not in the model).
 inline constexpr double kClipSecondsPerOccluder = 0.30e-6;
-inline constexpr double kSecondsPerRay = 0.13e-6;
+inline constexpr double kSecondsPerRay = 0.26e-6;
 inline constexpr int kDefaultRays = kAdaptiveRays;  // rays per (receiver point, source patch) unless asked otherwise
 // The mean count adaptive sampling (visibility.h, RaySampling: 8² to 32² at 1e-2) casts per
 // (point, patch) in an occluded shaft, for the cost model: 306 on the Cornell box solved with
