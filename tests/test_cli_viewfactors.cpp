@@ -388,3 +388,33 @@ TEST(CliViewFactors, OccludedAccuracyIntegratesOccludedPairsAdaptively) {
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("--occluded-accuracy"), std::string::npos) << r.err;
 }
+
+TEST(CliViewFactors, View3dFormOfCombinedBlastSurfacesHasTheReducedSurfaceCount) {
+  // The manual's L-shaped room in the F 3a format: 12 input surfaces, 9 and 10 combined into 7,
+  // 11 and 12 into 8, so 8 output surfaces as View3D writes (its output file for this input:
+  // "View3D 4.0.0 0 1 0 8", areas "9 3 6 6 3 9 5 5", F(1,3) = 0.378091 after its enclosure
+  // adjustment, 0.378093 without).
+  const std::string in = std::string(PHOTOMETRIA_SOURCE_DIR) + "/tests/data/view3d_pinney_bean_test_4_f3a.vs3";
+  const fs::path v3 = scratch() / "lroom.vf";
+  CliRun r = run("viewfactors " + in + " --format view3d --occluded-accuracy 1e-6 -o " + v3.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("View3D C line: eps=1e-05: superseded by --accuracy"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("; encl=1: not applied"), std::string::npos) << r.out;
+  std::stringstream lines(slurp(v3));
+  std::string line;
+  std::getline(lines, line);
+  EXPECT_EQ(line, "Photometria 0.1.0 0 0 0 8     ");
+  std::getline(lines, line);
+  EXPECT_EQ(line, "9 3 6 6 3 9 5 5");
+  std::vector<std::vector<double>> F;
+  for (int i = 0; i < 8 && std::getline(lines, line); ++i) {
+    std::stringstream cells(line);
+    F.emplace_back();
+    for (double f = 0.0; cells >> f;) F.back().push_back(f);
+  }
+  ASSERT_EQ(F.size(), 8u);
+  EXPECT_NEAR(F[0][2], 0.378093, 2e-6);
+  EXPECT_NEAR(F[6][7], 0.096833, 5e-6);
+  ASSERT_TRUE(std::getline(lines, line));
+  EXPECT_EQ(line, "0.900 0.900 0.900 0.900 0.900 0.900 0.900 0.900");
+}
