@@ -343,3 +343,27 @@ TEST(View3dInput, EveryControlKeyIsReportedAsHonouredOrIgnored) {
   EXPECT_EQ(view3d_control_notes(nlohmann::json{{"row", 3.0}}, job),
             (std::vector<std::string>{"row=3: ignored: every row and column is computed"}));
 }
+
+TEST(View3dInput, PointFactorsToABaseLeaveItsSubsurfaceOut) {
+  // From a point on the plate facing the wall: F(point → wall') + F(point → window) is the factor
+  // to the whole wall (the same window given as a surface of its own, base 0: the wall is whole),
+  // and F(point → window) is positive.
+  ViewFactorOptions opt;
+  SurfacePoint p;
+  p.position = Vec3(1.3, 0.9, 1.0);
+  p.normal = -Vec3::UnitZ();
+  const auto factors = [&](const std::string& window) {
+    const Scene s = load_scene(write_temp("points.vs3", wall_with(window)));
+    const PatchViewFactors r = compute_view_factors(s, opt);
+    const Aggregation agg = make_aggregation(s, r.mesh, AggregateLevel::Group);
+    return point_view_factors({p}, r.mesh, agg, r.visibility.get(), opt);
+  };
+  const ViewFactorMatrix with = factors("S 2 5 6 7 8 1 0 0.8 window");
+  const ViewFactorMatrix without = factors("S 2 5 6 7 8 0 0 0.8 window");
+  ASSERT_EQ(with.cols(), 3);
+  ASSERT_EQ(without.cols(), 3);
+  EXPECT_NEAR(with(0, 1), without(0, 1), 1e-12);
+  EXPECT_GT(with(0, 1), 0.05);
+  EXPECT_NEAR(with(0, 0) + with(0, 1), without(0, 0), 1e-9);
+  EXPECT_NEAR(with(0, 2), 0.0, 1e-12);  // the plate itself
+}
