@@ -418,3 +418,32 @@ TEST(CliViewFactors, View3dFormOfCombinedBlastSurfacesHasTheReducedSurfaceCount)
   ASSERT_TRUE(std::getline(lines, line));
   EXPECT_EQ(line, "0.900 0.900 0.900 0.900 0.900 0.900 0.900 0.900");
 }
+
+TEST(CliViewFactors, View3dFormOfAMaskSurfaceIsView3Ds) {
+  // View3D 4.0.0 on tests/data/view3d_wall_mask.vs3 writes "View3D 4.0.0 0 0 0 3", then
+  //   6 1 6 / 0.000000 0.166667 0.374437 / 1.000000 0.000000 0.000000 / 0.374437 0.000000 0.000000
+  //   / 0.900 0.800 0.700
+  // (its default eps = 1e-4; the closed form of F(wall → plate) is 0.3744415).
+  const std::string in = std::string(PHOTOMETRIA_SOURCE_DIR) + "/tests/data/view3d_wall_mask.vs3";
+  const fs::path v3 = scratch() / "mask.vf";
+  CliRun r = run("viewfactors " + in + " --format view3d -o " + v3.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const double view3d[3][3] = {{0.0, 0.166667, 0.374437}, {1.0, 0.0, 0.0}, {0.374437, 0.0, 0.0}};
+  std::stringstream lines(slurp(v3));
+  std::string line;
+  std::getline(lines, line);
+  EXPECT_EQ(line, "Photometria 0.1.0 0 0 0 3     ");
+  std::getline(lines, line);
+  EXPECT_EQ(line, "6 1 6");
+  for (int i = 0; i < 3; ++i) {
+    ASSERT_TRUE(std::getline(lines, line));
+    std::stringstream cells(line);
+    for (int j = 0; j < 3; ++j) {
+      double f = -1.0;
+      cells >> f;
+      EXPECT_NEAR(f, view3d[i][j], 6e-6) << i << " " << j;
+    }
+  }
+  ASSERT_TRUE(std::getline(lines, line));
+  EXPECT_EQ(line, "0.900 0.800 0.700");  // the mask keeps its own emissivity
+}

@@ -31,11 +31,13 @@ std::vector<double> view3d_emissivities_of(const std::string& path, const Scene&
   std::vector<int> first(static_cast<size_t>(agg.size()), -1);
   for (int i = 0; i < mesh.size(); ++i) {
     const int source = scene.faces[static_cast<size_t>(mesh.patches[i].face)].source_face;
-    if (agg.of_patch[i] < 0) continue;  // a View3D null surface
-    int& f = first[static_cast<size_t>(agg.of_patch[i])];
+    // A mask's patches count in no surface's factors but name their mask; null surfaces: none.
+    const int I = agg.of_patch[i] >= 0 || agg.mask_of_patch.empty() ? agg.of_patch[i] : agg.mask_of_patch[i];
+    if (I < 0) continue;
+    int& f = first[static_cast<size_t>(I)];
     if (source < 0 || source >= static_cast<int>(by_surface.size()) || (f >= 0 && f <= source)) continue;
     f = source;
-    out[static_cast<size_t>(agg.of_patch[i])] = by_surface[static_cast<size_t>(source)];
+    out[static_cast<size_t>(I)] = by_surface[static_cast<size_t>(source)];
   }
   return out;
 }
