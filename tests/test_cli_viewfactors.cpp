@@ -389,6 +389,31 @@ TEST(CliViewFactors, OccludedAccuracyIntegratesOccludedPairsAdaptively) {
   EXPECT_NE(r.err.find("--occluded-accuracy"), std::string::npos) << r.err;
 }
 
+namespace {
+
+// A View3D text view-factor file: its header, areas and emissivity lines, and the n rows.
+struct View3dFile {
+  std::string header, areas, emissivities;
+  std::vector<std::vector<double>> F;
+};
+
+View3dFile read_view3d_file(const fs::path& p, int n) {
+  View3dFile v;
+  std::stringstream lines(slurp(p));
+  std::getline(lines, v.header);
+  std::getline(lines, v.areas);
+  std::string line;
+  for (int i = 0; i < n && std::getline(lines, line); ++i) {
+    std::stringstream cells(line);
+    v.F.emplace_back();
+    for (double f = 0.0; cells >> f;) v.F.back().push_back(f);
+  }
+  std::getline(lines, v.emissivities);
+  return v;
+}
+
+}  // namespace
+
 TEST(CliViewFactors, View3dFormOfCombinedBlastSurfacesHasTheReducedSurfaceCount) {
   // The manual's L-shaped room in the F 3a format: 12 input surfaces, 9 and 10 combined into 7,
   // 11 and 12 into 8, so 8 output surfaces as View3D writes (its output file for this input:
@@ -400,23 +425,13 @@ TEST(CliViewFactors, View3dFormOfCombinedBlastSurfacesHasTheReducedSurfaceCount)
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("View3D C line: eps=1e-05: superseded by --accuracy"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("; encl=1: not applied"), std::string::npos) << r.out;
-  std::stringstream lines(slurp(v3));
-  std::string line;
-  std::getline(lines, line);
-  EXPECT_EQ(line, "Photometria 0.1.0 0 0 0 8     ");
-  std::getline(lines, line);
-  EXPECT_EQ(line, "9 3 6 6 3 9 5 5");
-  std::vector<std::vector<double>> F;
-  for (int i = 0; i < 8 && std::getline(lines, line); ++i) {
-    std::stringstream cells(line);
-    F.emplace_back();
-    for (double f = 0.0; cells >> f;) F.back().push_back(f);
-  }
-  ASSERT_EQ(F.size(), 8u);
-  EXPECT_NEAR(F[0][2], 0.378093, 2e-6);
-  EXPECT_NEAR(F[6][7], 0.096833, 5e-6);
-  ASSERT_TRUE(std::getline(lines, line));
-  EXPECT_EQ(line, "0.900 0.900 0.900 0.900 0.900 0.900 0.900 0.900");
+  const View3dFile v = read_view3d_file(v3, 8);
+  EXPECT_EQ(v.header, "Photometria 0.1.0 0 0 0 8     ");
+  EXPECT_EQ(v.areas, "9 3 6 6 3 9 5 5");
+  ASSERT_EQ(v.F.size(), 8u);
+  EXPECT_NEAR(v.F[0][2], 0.378093, 2e-6);
+  EXPECT_NEAR(v.F[6][7], 0.096833, 5e-6);
+  EXPECT_EQ(v.emissivities, "0.900 0.900 0.900 0.900 0.900 0.900 0.900 0.900");
 }
 
 TEST(CliViewFactors, View3dFormOfAMaskSurfaceIsView3Ds) {
@@ -429,21 +444,13 @@ TEST(CliViewFactors, View3dFormOfAMaskSurfaceIsView3Ds) {
   CliRun r = run("viewfactors " + in + " --format view3d -o " + v3.string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const double view3d[3][3] = {{0.0, 0.166667, 0.374437}, {1.0, 0.0, 0.0}, {0.374437, 0.0, 0.0}};
-  std::stringstream lines(slurp(v3));
-  std::string line;
-  std::getline(lines, line);
-  EXPECT_EQ(line, "Photometria 0.1.0 0 0 0 3     ");
-  std::getline(lines, line);
-  EXPECT_EQ(line, "6 1 6");
+  const View3dFile v = read_view3d_file(v3, 3);
+  EXPECT_EQ(v.header, "Photometria 0.1.0 0 0 0 3     ");
+  EXPECT_EQ(v.areas, "6 1 6");
+  ASSERT_EQ(v.F.size(), 3u);
   for (int i = 0; i < 3; ++i) {
-    ASSERT_TRUE(std::getline(lines, line));
-    std::stringstream cells(line);
-    for (int j = 0; j < 3; ++j) {
-      double f = -1.0;
-      cells >> f;
-      EXPECT_NEAR(f, view3d[i][j], 6e-6) << i << " " << j;
-    }
+    ASSERT_EQ(v.F[size_t(i)].size(), 3u);
+    for (int j = 0; j < 3; ++j) EXPECT_NEAR(v.F[size_t(i)][size_t(j)], view3d[i][j], 6e-6) << i << " " << j;
   }
-  ASSERT_TRUE(std::getline(lines, line));
-  EXPECT_EQ(line, "0.900 0.800 0.700");  // the mask keeps its own emissivity
+  EXPECT_EQ(v.emissivities, "0.900 0.800 0.700");  // the mask keeps its own emissivity
 }
