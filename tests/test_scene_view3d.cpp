@@ -182,6 +182,21 @@ TEST(View3dInput, CombinedSurfacesJoinTheGroupOfTheSurfaceTheyCombineInto) {
             std::string::npos);
 }
 
+TEST(View3dInput, BlastFormatNullSurfaceIsTurnedToFaceAsItsBase) {
+  // Wall: origin (0, 0, 0), azimuth 180, tilt 90: u = (1, 0, 0), v = (0, 0, 1), facing −y;
+  // 3 × 2. Null: origin (2, 0, 0.5), azimuth 0: u = (−1, 0, 0), facing +y (toward the wall's
+  // back, as View3D requires); 1 × 1, so x ∈ [1, 2], z ∈ [0.5, 1.5]: within the wall.
+  const Scene s = load_scene(write_temp("blast_null.vs3",
+                                        "F 3a\nS 1 R 0 0 0.9 wall\n0 0 0 180 90 3 2\n"
+                                        "N 2 R 1 0 0.9 hole\n2 0 0.5 0 90 1 1\n"));
+  ASSERT_EQ(s.faces.size(), 2u);
+  EXPECT_TRUE(s.faces[1].null_surface);
+  EXPECT_EQ(s.faces[1].base_group, s.faces[0].group);
+  EXPECT_LT(polygon_normal(s.face_polygon(0)).y(), -0.999);
+  EXPECT_LT(polygon_normal(s.face_polygon(1)).y(), -0.999);  // reversed to face as the wall
+  EXPECT_TRUE(same_polygon(corners(s, 1), {Vec3(2, 0, 1.5), Vec3(1, 0, 1.5), Vec3(1, 0, 0.5), Vec3(2, 0, 0.5)}, 1e-12));
+}
+
 TEST(View3dInput, BlastFormatRefusesBadRecordsNamingTheLine) {
   const std::string f = "T t\nF 3a\n";
   EXPECT_NE(load_error(f + "S 1 X 0 0 0.9 a\n").find("bad.vs3:3: surface shape 'X' is not R"), std::string::npos);
