@@ -1,4 +1,5 @@
-// View3D .vs3 input: the manual's cube, an obstruction-only surface, refused parts named by line.
+// View3D .vs3 input: the manual's cube, an obstruction-only surface, F 3a, combined surfaces,
+// subsurfaces, null and mask surfaces, refused parts named by line.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
