@@ -388,3 +388,69 @@ TEST(CliViewFactors, OccludedAccuracyIntegratesOccludedPairsAdaptively) {
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("--occluded-accuracy"), std::string::npos) << r.err;
 }
+
+namespace {
+
+// A View3D text view-factor file: its header, areas and emissivity lines, and the n rows.
+struct View3dFile {
+  std::string header, areas, emissivities;
+  std::vector<std::vector<double>> F;
+};
+
+View3dFile read_view3d_file(const fs::path& p, int n) {
+  View3dFile v;
+  std::stringstream lines(slurp(p));
+  std::getline(lines, v.header);
+  std::getline(lines, v.areas);
+  std::string line;
+  for (int i = 0; i < n && std::getline(lines, line); ++i) {
+    std::stringstream cells(line);
+    v.F.emplace_back();
+    for (double f = 0.0; cells >> f;) v.F.back().push_back(f);
+  }
+  std::getline(lines, v.emissivities);
+  return v;
+}
+
+}  // namespace
+
+TEST(CliViewFactors, View3dFormOfCombinedBlastSurfacesHasTheReducedSurfaceCount) {
+  // The manual's L-shaped room in the F 3a format: 12 input surfaces, 9 and 10 combined into 7,
+  // 11 and 12 into 8, so 8 output surfaces as View3D writes (its output file for this input:
+  // "View3D 4.0.0 0 1 0 8", areas "9 3 6 6 3 9 5 5", F(1,3) = 0.378091 after its enclosure
+  // adjustment, 0.378093 without).
+  const std::string in = std::string(PHOTOMETRIA_SOURCE_DIR) + "/tests/data/view3d_pinney_bean_test_4_f3a.vs3";
+  const fs::path v3 = scratch() / "lroom.vf";
+  CliRun r = run("viewfactors " + in + " --format view3d --occluded-accuracy 1e-6 -o " + v3.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("View3D C line: eps=1e-05: superseded by --accuracy"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("; encl=1: not applied"), std::string::npos) << r.out;
+  const View3dFile v = read_view3d_file(v3, 8);
+  EXPECT_EQ(v.header, "Photometria 0.1.0 0 0 0 8     ");
+  EXPECT_EQ(v.areas, "9 3 6 6 3 9 5 5");
+  ASSERT_EQ(v.F.size(), 8u);
+  EXPECT_NEAR(v.F[0][2], 0.378093, 2e-6);
+  EXPECT_NEAR(v.F[6][7], 0.096833, 5e-6);
+  EXPECT_EQ(v.emissivities, "0.900 0.900 0.900 0.900 0.900 0.900 0.900 0.900");
+}
+
+TEST(CliViewFactors, View3dFormOfAMaskSurfaceIsView3Ds) {
+  // View3D 4.0.0 on tests/data/view3d_wall_mask.vs3 writes "View3D 4.0.0 0 0 0 3", then
+  //   6 1 6 / 0.000000 0.166667 0.374437 / 1.000000 0.000000 0.000000 / 0.374437 0.000000 0.000000
+  //   / 0.900 0.800 0.700
+  // (its default eps = 1e-4; the closed form of F(wall → plate) is 0.3744415).
+  const std::string in = std::string(PHOTOMETRIA_SOURCE_DIR) + "/tests/data/view3d_wall_mask.vs3";
+  const fs::path v3 = scratch() / "mask.vf";
+  CliRun r = run("viewfactors " + in + " --format view3d -o " + v3.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const double view3d[3][3] = {{0.0, 0.166667, 0.374437}, {1.0, 0.0, 0.0}, {0.374437, 0.0, 0.0}};
+  const View3dFile v = read_view3d_file(v3, 3);
+  EXPECT_EQ(v.header, "Photometria 0.1.0 0 0 0 3     ");
+  EXPECT_EQ(v.areas, "6 1 6");
+  ASSERT_EQ(v.F.size(), 3u);
+  for (int i = 0; i < 3; ++i) {
+    ASSERT_EQ(v.F[size_t(i)].size(), 3u);
+    for (int j = 0; j < 3; ++j) EXPECT_NEAR(v.F[size_t(i)][size_t(j)], view3d[i][j], 6e-6) << i << " " << j;
+  }
+  EXPECT_EQ(v.emissivities, "0.900 0.800 0.700");  // the mask keeps its own emissivity
+}

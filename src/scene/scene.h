@@ -5,8 +5,9 @@
 //        usemtl, g / o names become groups),
 //   .off .ply .stl .om (through OpenMesh; every face gets LoadOptions' default material),
 //   .json scene files (meshes + material overrides by OBJ material or group name + settings).
-//   .vs3 View3D input (load_view3d.cpp: V/S/O records; each surface is a group; O surfaces are
-//        obstruction-only faces),
+//   .vs3 View3D input (load_view3d.cpp: F 3 and F 3a; each surface is a group; O surfaces are
+//        obstruction-only faces; combined surfaces share a group; subsurfaces, null and mask
+//        surfaces carry Face::base_group),
 // and cleans the geometry so that later stages can trust it:
 //   - coincident vertices are welded (distance <= weld_tolerance × bounding-box diagonal),
 //   - zero-area faces are dropped and counted,
@@ -53,6 +54,14 @@ struct Face {
   // OBJ smoothing group (`s N`): -1 when the file gives none (the crease angle decides), 0 for
   // `s off` (sharp against every other face), N > 0: faces of one group share output points.
   long smoothing_group = -1;
+  // View3D subsurface (`base` field): at --by group, this face's factors and area are also taken
+  // out of group `base_group` (the base surface's), which so becomes the base minus its
+  // subsurfaces; -1 when none.
+  int base_group = -1;
+  bool null_surface = false;  // View3D `N` surface: only taken out of base_group, no group of its own
+  // View3D `M` surface: taken out of base_group, which also keeps its area; its own group sees
+  // only the base (F = 1) and is seen only by it.
+  bool mask_surface = false;
 };
 
 // What loading did to the input, reported in the solve summary.

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <optional>
+#include <sstream>
 
 #include "io/atomic_file.h"
 #include "scene/scene.h"
@@ -24,16 +25,73 @@ std::vector<double> view3d_emissivities_of(const std::string& path, const Scene&
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   if (ext != ".vs3") return {};
   const std::vector<double> by_surface = view3d_emissivities(path);
+  // A combined output surface keeps the emissivity of its lowest-numbered member (the surface
+  // the others are combined into), as View3D does.
   std::vector<double> out(static_cast<size_t>(agg.size()), 1.0);
+  std::vector<int> first(static_cast<size_t>(agg.size()), -1);
   for (int i = 0; i < mesh.size(); ++i) {
     const int source = scene.faces[static_cast<size_t>(mesh.patches[i].face)].source_face;
-    if (source >= 0 && source < static_cast<int>(by_surface.size()))
-      out[static_cast<size_t>(agg.of_patch[i])] = by_surface[static_cast<size_t>(source)];
+    // A mask's patches count in no surface's factors but name their mask; null surfaces: none.
+    const int I = agg.of_patch[i] >= 0 || agg.mask_of_patch.empty() ? agg.of_patch[i] : agg.mask_of_patch[i];
+    if (I < 0) continue;
+    int& f = first[static_cast<size_t>(I)];
+    if (source < 0 || source >= static_cast<int>(by_surface.size()) || (f >= 0 && f <= source)) continue;
+    f = source;
+    out[static_cast<size_t>(I)] = by_surface[static_cast<size_t>(source)];
   }
   return out;
 }
 
+// A number as the C line would give it ("1e-05", "2").
+std::string control_value(double v) {
+  std::ostringstream o;
+  o << v;
+  return o.str();
+}
+
 }  // namespace
+
+std::vector<std::string> view3d_control_notes(const nlohmann::json& control, const ViewFactorJob& job) {
+  std::vector<std::string> notes;
+  if (!control.is_object()) return notes;
+  const bool closure = job.enforcement == Enforcement::Closure || job.enforcement == Enforcement::Both;
+  // In the order of the manual's list, then View3D's undocumented keys.
+  for (const char* key :
+       {"eps", "maxu", "maxo", "mino", "row", "col", "encl", "emit", "out", "list", "maxv", "prjd", "maxd"}) {
+    const auto it = control.find(key);
+    if (it == control.end() || !it->is_number()) continue;
+    const double v = it->get<double>();
+    const std::string k = std::string(key) + "=" + control_value(v) + ": ";
+    const std::string name(key);
+    if (name == "eps") {
+      std::ostringstream a;
+      a << job.fill.accuracy;
+      notes.push_back(k + "superseded by --accuracy " + a.str());
+    } else if (name == "maxu" || name == "maxo" || name == "mino" || name == "maxv" || name == "prjd" ||
+               name == "maxd") {
+      notes.push_back(k + "ignored (View3D's own integration limits; the integration here is adaptive to --accuracy)");
+    } else if (name == "row" || name == "col") {
+      notes.push_back(k + (v == 0.0 ? "all, as here" : "ignored: every row and column is computed"));
+    } else if (name == "encl") {
+      if (v == 0.0)
+        notes.push_back(k + "no enclosure adjustment" +
+                        (closure ? " (but --enforce " + enforcement_name(job.enforcement) + " asked for one)" : ""));
+      else
+        notes.push_back(k + (closure ? "honoured by --enforce " + enforcement_name(job.enforcement)
+                                     : "not applied (rows are not normalised; use --enforce both for View3D's "
+                                       "enclosure adjustment)"));
+    } else if (name == "emit") {
+      notes.push_back(k + (v == 0.0 ? "geometric view factors, as here"
+                                    : "ignored: geometric view factors are written, not View3D's factors with "
+                                      "emissivities"));
+    } else if (name == "out") {
+      notes.push_back(k + "ignored: the output form is --format " + view_factor_format_name(job.format));
+    } else if (name == "list") {
+      notes.push_back(k + "ignored (no View3D log file; see the summary and --json)");
+    }
+  }
+  return notes;
+}
 
 ViewFactorJobResult run_view_factor_job(const ViewFactorJob& job) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -71,6 +129,7 @@ ViewFactorJobResult run_view_factor_job(const ViewFactorJob& job) {
   opt.points = static_cast<int>(points.size());
 
   const PatchViewFactors r = compute_view_factors(scene, opt);
+  if (scene.settings.contains("view3d")) res.view3d_control = view3d_control_notes(scene.settings["view3d"], res.job);
   const Aggregation agg = make_aggregation(scene, r.mesh, job.level);
   res.F = aggregate(r.F, r.mesh, agg);
   if (job.enforcement != Enforcement::None) res.enforcement_report = enforce(res.F, agg.areas, job.enforcement);

@@ -65,6 +65,9 @@ struct ViewFactorJobResult {
   MatrixChecks checks;
   EnforcementReport enforcement_report;  // all zero when enforcement is None
   SparseWriteStats sparse;               // drop statistics; all zero unless format is Sparse
+  // A .vs3 input's C line: per key given, what became of it ("eps=1e-05: superseded by
+  // --accuracy 1e-07", ...), in the order of view3d_control_notes(); empty otherwise.
+  std::vector<std::string> view3d_control;
 
   // The fill.
   std::string visibility_mode;    // "none", "exact" or "rays"
@@ -81,6 +84,10 @@ struct ViewFactorJobResult {
 // BadInput when points_output is the output file, the scene or the points file is malformed,
 // the scene has no patch or the memory estimate exceeds the limit (compute_view_factors).
 // Whatever is thrown, no output file is left (and no temporary file).
+// What this job does with each key of a View3D C line (Scene::settings["view3d"], keys in lower
+// case as the loader keeps them): honoured, superseded by an option, or ignored, and why.
+std::vector<std::string> view3d_control_notes(const nlohmann::json& control, const ViewFactorJob& job);
+
 ViewFactorJobResult run_view_factor_job(const ViewFactorJob& job);
 
 }  // namespace photometria

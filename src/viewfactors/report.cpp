@@ -82,6 +82,7 @@ nlohmann::json viewfactor_summary_json(const ViewFactorJobResult& r) {
                    {"dropped_worst_row", ws.worst_row},
                    {"dropped_total", ws.total_dropped}};
   if (!job.points_output.empty()) j["points"] = {{"count", job.fill.points}, {"output", job.points_output}};
+  if (!r.view3d_control.empty()) j["view3d_control"] = r.view3d_control;
   j["seconds"] = r.seconds;
   j["peak_memory_bytes"] = peak_memory_bytes();
   return j;
@@ -126,6 +127,11 @@ std::string viewfactor_summary_text(const ViewFactorJobResult& r) {
       << " dropped; largest dropped row sum " << ws.max_dropped_row_sum << " (row " << ws.worst_row << ")\n";
   if (!job.points_output.empty())
     o << "  point factors: " << job.fill.points << " points -> " << job.points_output << "\n";
+  if (!r.view3d_control.empty()) {
+    o << "  View3D C line:";
+    for (size_t k = 0; k < r.view3d_control.size(); ++k) o << (k ? "; " : " ") << r.view3d_control[k];
+    o << "\n";
+  }
   o << "  time " << r.seconds << " s, peak memory " << peak_memory_bytes() / 1048576.0 << " MiB\n";
   return o.str();
 }

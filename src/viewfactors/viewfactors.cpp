@@ -111,9 +111,7 @@ Aggregation make_aggregation(const Scene& scene, const PatchMesh& mesh, Aggregat
   }
   // Surfaces in order of first appearance of their key (group index or source face).
   std::vector<int> index_of_key;
-  for (int i = 0; i < n; ++i) {
-    const Face& f = scene.faces[static_cast<size_t>(mesh.patches[i].face)];
-    const int key = level == AggregateLevel::Group ? f.group : f.source_face;
+  const auto surface_of_key = [&](int key) {
     if (key >= static_cast<int>(index_of_key.size())) index_of_key.resize(static_cast<size_t>(key) + 1, -1);
     if (index_of_key[key] < 0) {
       index_of_key[key] = a.size();
@@ -121,17 +119,44 @@ Aggregation make_aggregation(const Scene& scene, const PatchMesh& mesh, Aggregat
                                                        : "face " + std::to_string(key));
       a.areas.push_back(0.0);
     }
-    a.of_patch[i] = index_of_key[key];
-    a.areas[static_cast<size_t>(index_of_key[key])] += mesh.patches[i].area;
+    return index_of_key[key];
+  };
+  for (int i = 0; i < n; ++i) {
+    const Face& f = scene.faces[static_cast<size_t>(mesh.patches[i].face)];
+    const double area = mesh.patches[i].area;
+    // View3D subsurfaces and null surfaces: the base group is the base minus them.
+    if (level == AggregateLevel::Group && f.base_group >= 0) {
+      if (a.minus_of_patch.empty()) a.minus_of_patch.assign(static_cast<size_t>(n), -1);
+      const int base = surface_of_key(f.base_group);
+      a.minus_of_patch[i] = base;
+      a.areas[static_cast<size_t>(base)] -= area;
+      if (f.null_surface) continue;
+      if (f.mask_surface) {
+        // The masked part of the base only sees the mask: its area stays in the base's.
+        if (a.mask_of_patch.empty()) a.mask_of_patch.assign(static_cast<size_t>(n), -1);
+        a.areas[static_cast<size_t>(base)] += area;
+        const int mask = surface_of_key(f.group);
+        a.mask_of_patch[i] = mask;
+        a.areas[static_cast<size_t>(mask)] += area;
+        continue;
+      }
+    }
+    const int own = surface_of_key(level == AggregateLevel::Group ? f.group : f.source_face);
+    a.of_patch[i] = own;
+    a.areas[static_cast<size_t>(own)] += area;
   }
   return a;
 }
 
 ViewFactorMatrix aggregate(const FormFactors& F, const PatchMesh& mesh, const Aggregation& agg) {
-  // F_IJ = (1/A_I) Σ_{i∈I} A_i Σ_{j∈J} F_ij (Modest 2013, eq. 4.19).
+  // F_IJ = (1/A_I) Σ_{i∈I} A_i Σ_{j∈J} F_ij (Modest 2013, eq. 4.19). A patch of a subsurface
+  // (minus_of_patch) also counts with the sign −1 in its base surface: A_B' F_B'J = A_B F_BJ −
+  // A_s F_sJ and A_I F_IB' = A_I F_IB − A_I F_Is for the base net of its subsurface s (the same
+  // algebra, View3D's post-processing). A mask patch (mask_of_patch) is taken out of its base
+  // likewise and adds A_M to A_M F_MB and A_B F_BM instead.
   const int g = agg.size();
   ViewFactorMatrix out = ViewFactorMatrix::Zero(g, g);
-  if (g == mesh.size()) {
+  if (g == mesh.size() && agg.minus_of_patch.empty()) {
     // One patch per surface (faces not split): F_IJ = F_ij itself, rows independent, on every core.
 #pragma omp parallel for schedule(dynamic, 16)
     for (int i = 0; i < mesh.size(); ++i) {
@@ -140,10 +165,24 @@ ViewFactorMatrix aggregate(const FormFactors& F, const PatchMesh& mesh, const Ag
     }
     return out;
   }
+  const bool minus = !agg.minus_of_patch.empty();
+  const auto minus_of = [&](int i) { return minus ? agg.minus_of_patch[size_t(i)] : -1; };
   for (int i = 0; i < mesh.size(); ++i) {
-    const int I = agg.of_patch[i];
+    const int I = agg.of_patch[i], Im = minus_of(i);
     const double ai = mesh.patches[i].area;
-    F.for_each_in_row(i, [&](int j, double f) { out(I, agg.of_patch[j]) += ai * f; });
+    F.for_each_in_row(i, [&](int j, double f) {
+      const int J = agg.of_patch[j], Jm = minus_of(j);
+      const double af = ai * f;
+      if (I >= 0 && J >= 0) out(I, J) += af;
+      if (I >= 0 && Jm >= 0) out(I, Jm) -= af;
+      if (Im >= 0 && J >= 0) out(Im, J) -= af;
+      if (Im >= 0 && Jm >= 0) out(Im, Jm) += af;
+    });
+    // A mask's patch: the part of the base it covers sees the mask alone (View3D's M surface).
+    if (!agg.mask_of_patch.empty() && agg.mask_of_patch[size_t(i)] >= 0) {
+      out(agg.mask_of_patch[size_t(i)], Im) += ai;
+      out(Im, agg.mask_of_patch[size_t(i)]) += ai;
+    }
   }
   for (int I = 0; I < g; ++I) out.row(I) /= agg.areas[static_cast<size_t>(I)];
   return out;
@@ -353,6 +392,7 @@ std::vector<double> view3d_emissivities(const std::string& path) {
   if (!in) throw_io("cannot open '" + path + "'");
   std::vector<double> emit;
   std::string line;
+  bool blast = false;  // F 3a
   while (std::getline(in, line)) {
     // As the loader: '!' starts a comment anywhere, a token starting with '#' ends the line;
     // records are case-insensitive.
@@ -364,10 +404,18 @@ std::vector<double> view3d_emissivities(const std::string& path) {
     if (t.empty()) continue;
     std::string rec = t[0];
     for (char& c : rec) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-    if (rec == "E" || rec == "END") break;
-    if ((rec != "S" && rec != "O") || t.size() < 9) continue;
+    if (rec == "E" || rec == "END" || rec == "*") break;
+    if (rec == "F" && t.size() > 1) blast = t[1] == "3a" || t[1] == "3A";
+    // F 3: "S n v1 v2 v3 v4 base cmbn emit name"; F 3a: "S n shape base cmbn emit name" (an O
+    // line may stop after its shape: emissivity 0).
+    const size_t field = blast ? 5 : 8;
+    if (rec != "S" && rec != "O" && rec != "N" && rec != "M") continue;
+    if (t.size() <= field) {
+      if (blast && rec == "O") emit.push_back(0.0);
+      continue;
+    }
     char* end = nullptr;
-    const double e = std::strtod(t[8].c_str(), &end);
+    const double e = std::strtod(t[field].c_str(), &end);
     emit.push_back(end && *end == '\0' && std::isfinite(e) ? e : 0.0);
   }
   return emit;
@@ -390,7 +438,10 @@ ViewFactorMatrix point_view_factors(const std::vector<SurfacePoint>& points, con
     PointFactors::Counts counts;
     auto stream_of = [&](int j) { return pair_stream(opt.seed ^ 0x9017ULL, uint64_t(o), uint64_t(j)); };
     point_factors[size_t(omp_get_thread_num())].for_each_visible(
-        Receiver{x.position, x.normal}, stream_of, counts, [&](int j, double f) { out(o, agg.of_patch[j]) += f; });
+        Receiver{x.position, x.normal}, stream_of, counts, [&](int j, double f) {
+          if (agg.of_patch[j] >= 0) out(o, agg.of_patch[j]) += f;
+          if (!agg.minus_of_patch.empty() && agg.minus_of_patch[j] >= 0) out(o, agg.minus_of_patch[j]) -= f;
+        });
   }
   return out;
 }

@@ -100,7 +100,14 @@ PatchViewFactors compute_view_factors(const Scene& scene, const ViewFactorOption
 struct Aggregation {
   std::vector<std::string> names;  // group name, "face <source_face>" or "patch <i>"
   std::vector<double> areas;       // m², Σ of member patch areas
-  std::vector<int> of_patch;       // per patch: index of its surface (size N)
+  std::vector<int> of_patch;       // per patch: index of its surface (size N), -1 for none
+  // Per patch (size N, or empty when none): the surface whose factors and area this patch is
+  // taken out of (Face::base_group at the group level: a View3D subsurface's base), -1 for none.
+  std::vector<int> minus_of_patch;
+  // Per patch (size N, or empty when none): the View3D mask surface (Face::mask_surface) the
+  // patch belongs to, whose only factor is the one to its base (A_M F_MB = A_B F_BM = A_M), -1
+  // for none.
+  std::vector<int> mask_of_patch;
   int size() const { return static_cast<int>(names.size()); }
 };
 // Groups without patches (obstruction-only groups) are left out.
