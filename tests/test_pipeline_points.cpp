@@ -132,3 +132,20 @@ TEST(OutputPoints, SmoothingGroupsWinOverTheAngle) {
     }
   EXPECT_EQ(halfway, 2);
 }
+
+// A uniformly emitting tessellated sphere: B = E / (1 − ρ) = 2 at every point, exactly, with
+// sharp and with smoothed points. A smoothed point's own patches rise above its horizon (the
+// surface is concave): the gap below them takes their radiosity, or the sum would fall short.
+TEST(OutputPoints, UniformSphereStaysExactWithSmoothedNormals) {
+  const double rho = 0.5;
+  Scene sphere = validation::sphere_cap_scene(12, rho);
+  for (Face& f : sphere.faces) f.material = 0;  // one material: no split at the cap's edge
+  sphere.materials[0].emission = Rgb::Constant(1.0);
+  for (const double crease : {0.0, 30.0}) {
+    const SolveResult r = solve_whole_faces(sphere, crease);
+    double worst = 0.0;
+    for (int o = 0; o < static_cast<int>(r.points.size()); ++o)
+      worst = std::max(worst, std::abs(r.point_radiosity(o, 0) - 2.0) / 2.0);
+    EXPECT_LT(worst, 1e-7) << "crease angle " << crease;
+  }
+}

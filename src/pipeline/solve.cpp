@@ -81,8 +81,8 @@ double corner_angle(const PatchMesh& mesh, const Patch& p, int k) {
 // (smooth_across, closed transitively: a smooth fan is one cluster, a cube corner three), one
 // point per cluster. Its normal is the angle-weighted mean of the cluster's patch normals,
 // n = normalize(Σ α_i n_i) with α_i the patch's interior angle at the vertex (Thürmer & Wüthrich,
-// "Computing vertex normals from polygonal meshes", J. Graphics Tools 3(1), 1998, eq. 1): it does
-// not depend on how the faces around the vertex are split into triangles.
+// "Computing vertex normals from polygonal facets", J. Graphics Tools 3(1), 1998): it does not
+// depend on how the faces around the vertex are split into triangles.
 void split_output_points(const Scene& scene, double crease_angle_degrees, SolveResult& r) {
   const PatchMesh& mesh = r.mesh;
   const double cos_crease = crease_angle_degrees > 0.0 ? std::cos(crease_angle_degrees * M_PI / 180.0) : 2.0;
@@ -129,6 +129,46 @@ void split_output_points(const Scene& scene, double crease_angle_degrees, SolveR
       r.points.push_back({mesh.points[v], normal, u.norm() > 0 ? Vec3(u.normalized()) : Vec3::Zero(), material});
     }
   }
+}
+
+// The part of x's hemisphere (normal `normal`) between its tangent plane and the plane of patch
+// `patch`, one of x's own patches with x at a corner, within that corner's wedge: the directions
+// that leave the tessellated surface there when the smoothed normal tilts the patch above x's
+// horizon (a concave surface). Seen from x they lead into the patch's side of the surface, so
+// they take the patch's radiosity; without them a smooth point's factors would not sum to 1 in a
+// closed enclosure. As a form factor, Lambert's formula F = (1/2π) Σ_k Θ_k (n · Γ̂_k) (Lambert
+// 1760; Stark, "Vertex-Based Formulations of Irradiance from Polygonal Sources", UUCS-00-012,
+// 2000, eq. (3); kernels/lambert.h) over the edges of the region's outline, as unit directions.
+// 0 when the patch lies in or below the tangent plane.
+double own_patch_gap(const PatchMesh& mesh, int patch, const Vec3& x, const Vec3& normal) {
+  const Patch& p = mesh.patches[size_t(patch)];
+  if (p.normal.dot(normal) > 1.0 - 1e-9) return 0.0;  // x's tangent plane is the patch's
+  const int n = p.corner_count;
+  int k = 0;
+  while (k < n && mesh.points[size_t(p.corners[size_t(k)])] != x) ++k;
+  if (k == n) return 0.0;
+  const Vec3 e1 = (mesh.points[size_t(p.corners[size_t((k + 1) % n)])] - x).normalized();
+  const Vec3 e2 = (mesh.points[size_t(p.corners[size_t((k + n - 1) % n)])] - x).normalized();
+  const double h1 = normal.dot(e1), h2 = normal.dot(e2);
+  const auto on_horizon = [&](const Vec3& d) { return Vec3(d - normal.dot(d) * normal); };
+  Vec3 d[4];
+  int m = 0;
+  if (h1 > 0 && h2 > 0) {
+    d[m++] = e1, d[m++] = e2, d[m++] = on_horizon(e2), d[m++] = on_horizon(e1);
+  } else if (h1 > 0 || h2 > 0) {
+    const Vec3& up = h1 > 0 ? e1 : e2;
+    const Vec3 crossing = e1 + h1 / (h1 - h2) * (e2 - e1);  // where the patch's edge arc meets the horizon
+    d[m++] = up, d[m++] = crossing, d[m++] = on_horizon(up);
+  } else {
+    return 0.0;
+  }
+  double sum = 0.0;
+  for (int i = 0; i < m; ++i) {
+    const Vec3 c = d[i].cross(d[(i + 1) % m]);
+    const double len = c.norm();
+    if (len > 0) sum += std::atan2(len, d[i].dot(d[(i + 1) % m])) * normal.dot(c) / len;
+  }
+  return std::abs(sum) / (2.0 * M_PI);
 }
 
 // H(x) = Σ_j F_vis(dA_x -> P_j) B_j at every output point (Baum et al. 1989), with the same
@@ -186,13 +226,16 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
       const Receiver receiver{x.position, x.normal, x.approach};
       // Only rays use the pair's stream.
       auto stream_of = [&](int j) { return pair_stream(opt.seed ^ 0x5eedULL, uint64_t(o), uint64_t(j)); };
-      // The point's own patches (its cluster) are the surface it lies on: they add nothing (with
-      // a smoothed normal they may rise above its horizon, and Lambert's limit would count them).
+      // The point's own patches (its cluster) are the surface it lies on: not sources (with a
+      // smoothed normal they may rise above its horizon, and Lambert's boundary limit would count
+      // them); where they do, the gap below them takes their radiosity (own_patch_gap).
       const int* own = own_patches.data() + own_start[size_t(o)];
       const int* own_end = own_patches.data() + own_start[size_t(o) + 1];
       factors.for_each_visible(receiver, stream_of, counts, [&](int j, double f) {
         if (std::find(own, own_end, j) == own_end) h += f * r.radiosity.row(j);
       });
+      for (const int* j = own; j != own_end; ++j)
+        h += own_patch_gap(r.mesh, *j, x.position, x.normal) * r.radiosity.row(*j);
       if (!direct.empty()) h += direct.at(x.position, x.normal).matrix().transpose();
       const Material& m = scene.materials[x.material];
       r.point_irradiance.row(o) = h;
