@@ -51,6 +51,8 @@ struct SolveArgs {
   std::optional<double> accuracy, crease_angle;
   std::optional<std::string> visibility;
   std::optional<std::string> solver;
+  std::optional<std::string> method;
+  std::optional<double> error, min_element;
   std::optional<std::string> max_memory;
   std::string matrix = "auto", matrix_precision = "auto";
   bool flip_normals = false, keep_orientation = false;
@@ -125,6 +127,14 @@ int run_solve(const SolveArgs& a) {
   if (opt.quadrature < 1 || opt.quadrature > 16) pm::throw_bad_input("--quadrature must be in 1..16");
   if (!(opt.solver.tolerance > 0) || !std::isfinite(opt.solver.tolerance))
     pm::throw_bad_input("--tolerance must be finite and > 0");
+  const std::string method = setting(a.method, st, "method", std::string("dense"));
+  if (!pm::solve_method_from_name(method, opt.method))
+    pm::throw_bad_input("--method: '" + method + "' is not dense or hierarchical");
+  opt.hierarchical_error = setting(a.error, st, "error", 1e-2);
+  opt.min_element_edge = setting(a.min_element, st, "min_element", 0.0);
+  if (!(opt.hierarchical_error > 0 && opt.hierarchical_error < 1)) pm::throw_bad_input("--error must be in (0, 1)");
+  if (!(opt.min_element_edge >= 0) || !std::isfinite(opt.min_element_edge))
+    pm::throw_bad_input("--min-element must be finite and >= 0");
   opt.max_memory_bytes = max_memory;
   opt.threads = a.threads;
   opt.matrix_layout = pm::parse_layout(a.matrix);
@@ -188,6 +198,18 @@ Command add_solve_command(CLI::App& app) {
   solve->add_option("--max-iterations", s.max_iterations, "Solver sweep cap (default 100000)")
       ->check(options::integer_in(1, std::numeric_limits<int>::max()));
   solve->add_option("--solver", s.solver, "auto | gauss-seidel | sor | cg | gmres | direct (default auto)");
+  solve->add_option(
+      "--method", s.method,
+      "dense | hierarchical (default dense; hierarchical: links refined to --error, memory following the links)");
+  solve
+      ->add_option("--error", s.error,
+                   "Hierarchical method: relative radiosity error at which links stop refining (default 1e-2)")
+      ->check(options::real_in(0, 1, true, true));
+  solve
+      ->add_option("--min-element", s.min_element,
+                   "Hierarchical method: elements with a longest edge at most this (metres) are not split "
+                   "(default: bounding diagonal / 256)")
+      ->check(options::real_in(0, options::kInf));
   solve->add_option("--threads", s.threads, "Threads (default: all cores)")
       ->check(options::integer_in(0, options::kMaxThreads));
   solve->add_option("--reflectance", s.reflectance, "Default reflectance for formats without materials: r or r,g,b");

@@ -326,3 +326,32 @@ TEST(Cli, CreaseAngleJoinsTheSplitWallsPoints) {
   EXPECT_LT(s["output_points"].get<int>(), h["output_points"].get<int>());
   EXPECT_EQ(photometria::read_vtu(out).points.size(), h["output_points"].get<size_t>());
 }
+
+// `--method hierarchical`: the leaves are the cells, the summary says what the hierarchy did,
+// the arrays are those of the dense method; a method that does not exist is refused.
+TEST(Cli, HierarchicalMethodWritesTheLeavesAndReportsTheHierarchy) {
+  const std::string out = (scratch() / "cornell_hierarchical.vtu").string();
+  const CliRun r = run("solve " + mesh("cornell_box.obj") + " -o " + out + " --method hierarchical --error 0.1 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto s = nlohmann::json::parse(r.out);
+  EXPECT_EQ(s["method"], "hierarchical");
+  const auto& h = s["hierarchical"];
+  EXPECT_EQ(h["error"].get<double>(), 0.1);
+  EXPECT_EQ(h["roots"].get<int>(), s["faces"].get<int>());
+  EXPECT_GT(h["leaves"].get<int>(), h["roots"].get<int>());
+  EXPECT_GT(h["links"].get<long long>(), 0);
+  EXPECT_FALSE(h["stopped_by_memory"].get<bool>());
+  EXPECT_TRUE(s["solver"]["converged"].get<bool>());
+  EXPECT_LT(s["energy_w"]["relative_imbalance"].get<double>(), 0.1);
+  const VtuGrid g = photometria::read_vtu(out);
+  EXPECT_EQ(g.cells.size(), h["leaves"].get<size_t>());
+  for (const std::string name : {"radiosity", "irradiance"})
+    for (double v : array(g.point_arrays, name).values) ASSERT_TRUE(std::isfinite(v) && v >= 0) << name;
+
+  const CliRun bad = run("solve " + mesh("cornell_box.obj") + " -o " + out + " --method sparse");
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.err.find("--method: 'sparse' is not dense or hierarchical"), std::string::npos) << bad.err;
+  const CliRun dense = run("solve " + mesh("cornell_box.obj") + " -o " + out + " --json");
+  ASSERT_EQ(dense.exit_code, 0) << dense.err;
+  EXPECT_EQ(nlohmann::json::parse(dense.out)["method"], "dense");
+}

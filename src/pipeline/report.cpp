@@ -57,6 +57,22 @@ nlohmann::json summary_json(const Scene& scene, const SolveSummary& s) {
   j["warnings"] = load_warnings(scene.stats);
   j["faces"] = s.faces;
   j["patches"] = s.patches;
+  j["method"] = s.method;
+  if (s.method == "hierarchical") {
+    const HierarchicalStats& h = s.hierarchical;
+    j["hierarchical"] = {{"error", h.error},
+                         {"min_element_edge", h.min_edge},
+                         {"roots", h.roots},
+                         {"elements", h.elements},
+                         {"leaves", h.leaves},
+                         {"links", h.links},
+                         {"links_evaluated", h.links_evaluated},
+                         {"rounds", h.rounds},
+                         {"sweeps", h.sweeps},
+                         {"bytes", h.bytes},
+                         {"stopped_by_memory", h.stopped_by_memory},
+                         {"stopped_by_rounds", h.stopped_by_rounds}};
+  }
   j["patch_area"] = {{"min", s.min_patch_area}, {"max", s.max_patch_area}, {"total", s.total_area}};
   j["pairs"] = {{"total", s.pairs_total},
                 {"evaluated", s.fill.pairs_evaluated},
@@ -133,6 +149,16 @@ std::string summary_table(const Scene& scene, const SolveSummary& s) {
                << scene.stats.dropped_degenerate << " degenerate, split " << scene.stats.split_nonplanar
                << " non-planar, dropped " << scene.stats.duplicate_faces << " duplicate, flipped "
                << scene.stats.flipped_faces << (scene.stats.flipped_all ? " + all (--flip-normals)" : "") << ")\n";
+  row("method") << s.method << "\n";
+  if (s.method == "hierarchical") {
+    const HierarchicalStats& h = s.hierarchical;
+    row("hierarchy") << "error " << h.error << ", elements down to " << std::setprecision(4) << h.min_edge
+                     << " m: " << h.roots << " roots, " << h.elements << " elements, " << h.leaves << " leaves, "
+                     << format_count(h.links) << " links (" << format_count(h.links_evaluated) << " evaluated), "
+                     << h.rounds << " rounds, " << format_bytes(h.bytes)
+                     << (h.stopped_by_memory ? "; refinement stopped at the memory limit" : "")
+                     << (h.stopped_by_rounds ? "; links still above the error after the last round" : "") << "\n";
+  }
   row("patches") << s.patches << " (area " << std::setprecision(4) << s.min_patch_area << " .. " << s.max_patch_area
                  << " m²)\n";
   row("pairs") << s.fill.pairs_evaluated << " evaluated, " << s.fill.pairs_backfacing << " skipped back-facing, "

@@ -287,7 +287,31 @@ StorageChoice check_memory(const MemoryEstimate& estimate, double patches, const
   return c;
 }
 
+std::unique_ptr<HierarchicalRadiosity> solve_by_hierarchy(const Scene& scene, const PatchMesh& roots,
+                                                          const Visibility* vis, const DirectLighting& lights,
+                                                          const SolveOptions& opt, SolveResult& r);
+void gather_from_hierarchy(const Scene& scene, const HierarchicalRadiosity& hierarchy, const DirectLighting& direct,
+                           const SolveOptions& opt, SolveResult& r);
+void solve_dense(const Scene& scene, const Visibility* vis, const DirectLighting& lights, const SolveOptions& opt,
+                 SolveResult& r, StageTimer& timer);
+
 }  // namespace
+
+std::string solve_method_name(SolveMethod method) {
+  switch (method) {
+    case SolveMethod::Hierarchical: return "hierarchical";
+    default: return "dense";
+  }
+}
+
+bool solve_method_from_name(const std::string& name, SolveMethod& out) {
+  for (SolveMethod m : {SolveMethod::Dense, SolveMethod::Hierarchical})
+    if (name == solve_method_name(m)) {
+      out = m;
+      return true;
+    }
+  return false;
+}
 
 SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
   if (opt.threads > 0) omp_set_num_threads(opt.threads);
@@ -295,10 +319,6 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
   SolveSummary& s = r.summary;
   s.threads = omp_get_max_threads();
   StageTimer timer(s);
-  auto progress = [&](const std::string& stage) {
-    return opt.progress ? std::function<void(double)>([&, stage](double f) { opt.progress(stage, f); })
-                        : std::function<void(double)>();
-  };
 
   const DirectLighting lights(scene);
   bool emits = !lights.empty();
@@ -308,11 +328,15 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
                     ": nothing to solve: no face emits light and there are no lights "
                     "(set Ke in the .mtl, --emission, or \"lights\" in a scene file)");
 
-  {
+  const bool hierarchical = opt.method == SolveMethod::Hierarchical;
+  if (!hierarchical) {
     const PatchGrid grid = count_patches(scene, opt.patching);
     check_memory(estimate_memory(scene, grid, opt.seed), grid.patches, opt, s);
   }
-  r.mesh = subdivide(scene, opt.patching);
+  s.method = hierarchical ? "hierarchical" : "dense";
+  // The hierarchy's roots are the scene's faces (its elements are split as the links need);
+  // the dense method's patches are the patching's.
+  r.mesh = subdivide(scene, hierarchical ? PatchingOptions{} : opt.patching);
   s.faces = static_cast<int>(scene.faces.size());
   s.patches = r.mesh.size();
   s.min_patch_area = r.mesh.size() ? r.mesh.patches[0].area : 0.0;
@@ -332,11 +356,122 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
   const std::unique_ptr<Visibility> vis = make_visibility(scene, visibility, sampling);
   if (visibility.mode == VisibilityMode::Rays) s.ray_sampling = ray_sampling_name(opt.rays, sampling);
   timer.lap("visibility_setup");
+  const PatchMesh roots = hierarchical ? r.mesh : PatchMesh();
+  std::unique_ptr<HierarchicalRadiosity> hierarchy;
+  if (hierarchical) {
+    hierarchy = solve_by_hierarchy(scene, roots, vis.get(), lights, opt, r);
+    timer.lap("hierarchical_solve");
+  } else {
+    solve_dense(scene, vis.get(), lights, opt, r, timer);
+  }
 
+  split_output_points(scene, opt.crease_angle_degrees, r);
+  s.output_points = static_cast<int>(r.points.size());
+  s.crease_angle_degrees = opt.crease_angle_degrees;
+  if (hierarchy) gather_from_hierarchy(scene, *hierarchy, lights, opt, r);
+  else gather_at_points(scene, vis.get(), lights, opt, r);
+  timer.lap("vertex_gather");
+  // Never hand a NaN on to a result file: with finite, checked inputs this is a bug (exit 4).
+  if (!r.radiosity.allFinite() || !r.irradiance.allFinite() || !r.point_radiosity.allFinite() ||
+      !r.point_irradiance.allFinite())
+    throw std::logic_error(scene.source + ": the solution contains a non-finite value");
+  return r;
+}
+
+namespace {
+
+// The hierarchical method (hierarchical/hierarchical.h): its leaves become the result's patches.
+std::unique_ptr<HierarchicalRadiosity> solve_by_hierarchy(const Scene& scene, const PatchMesh& roots,
+                                                          const Visibility* vis, const DirectLighting& lights,
+                                                          const SolveOptions& opt, SolveResult& r) {
+  SolveSummary& s = r.summary;
+  HierarchicalOptions h;
+  h.error = opt.hierarchical_error;
+  h.min_edge = opt.min_element_edge;
+  h.tolerance = opt.solver.tolerance;
+  h.max_iterations = opt.solver.max_iterations;
+  h.max_memory_bytes = opt.max_memory_bytes > 0.0 ? opt.max_memory_bytes : available_memory_bytes();
+  h.rays = opt.rays;
+  h.seed = opt.seed;
+  h.progress = opt.progress;
+  auto hierarchy = std::make_unique<HierarchicalRadiosity>(scene, roots, vis, lights, h);
+  HierarchicalSolution sol = hierarchy->solve();
+  s.hierarchical = sol.stats;
+  r.mesh = std::move(sol.leaves);
+  s.patches = r.mesh.size();
+  s.min_patch_area = r.mesh.size() ? r.mesh.patches[0].area : 0.0;
+  s.max_patch_area = 0.0;
+  for (const Patch& p : r.mesh.patches) {
+    s.min_patch_area = std::min(s.min_patch_area, p.area);
+    s.max_patch_area = std::max(s.max_patch_area, p.area);
+  }
+  s.pairs_total = (long long)s.patches * (s.patches - 1);
+  fill_materials(scene, r);
+  r.radiosity = sol.radiosity;
+  r.irradiance = sol.irradiance;
+  s.lights = lights.count();
+  s.tolerance = opt.solver.tolerance;
+  s.solver.iterations = sol.stats.sweeps;
+  s.solver.residual = sol.stats.residual;
+  s.solver.converged = sol.stats.converged;
+  s.solver.channels_solved = 3;
+  s.solver.method = SolverMethod::GaussSeidel;
+  s.solver.detail = "hierarchical: gathering over links with push-pull";
+  s.memory_limit_bytes = h.max_memory_bytes;
+  s.memory_limit_source = opt.max_memory_bytes > 0.0 ? "--max-memory" : "MemAvailable";
+  s.matrix_storage = "links";
+  s.matrix_bytes = sol.stats.bytes;
+  s.energy = energy_balance(sol.row_sums, sol.direct, r);
+  return hierarchy;
+}
+
+// The vertex gather over the hierarchy's links (HierarchicalRadiosity::irradiance_at): each
+// output point takes the links of the first leaf it is a corner of and their ancestors.
+void gather_from_hierarchy(const Scene& scene, const HierarchicalRadiosity& hierarchy, const DirectLighting& direct,
+                           const SolveOptions& opt, SolveResult& r) {
+  const int np = static_cast<int>(r.points.size());
+  std::vector<int> leaf_of(size_t(np), -1);
+  for (int i = 0; i < static_cast<int>(r.cells.size()); ++i)
+    for (int o : r.cells[size_t(i)])
+      if (leaf_of[size_t(o)] < 0) leaf_of[size_t(o)] = i;
+  r.point_irradiance = ChannelMatrix::Zero(np, 3);
+  r.point_radiosity = ChannelMatrix::Zero(np, 3);
+  long long gathered = 0, rays = 0;
+  std::atomic<int> done{0};
+#pragma omp parallel for schedule(dynamic, 64) reduction(+ : gathered, rays)
+  for (int o = 0; o < np; ++o) {
+    const OutputPoint& x = r.points[size_t(o)];
+    RayTally tally;
+    long long links = 0;
+    Rgb h = leaf_of[size_t(o)] < 0
+                ? Rgb::Zero()
+                : hierarchy.irradiance_at(Receiver{x.position, x.normal, x.approach}, leaf_of[size_t(o)], tally, links);
+    if (!direct.empty()) h += direct.at(x.position, x.normal);
+    const Material& m = scene.materials[size_t(x.material)];
+    r.point_irradiance.row(o) = h.matrix().transpose();
+    r.point_radiosity.row(o) = (m.emission + m.reflectance * h).matrix().transpose();
+    gathered += links;
+    rays += tally.cast;
+    const int d = ++done;
+    if (opt.progress && omp_get_thread_num() == 0 && d % 256 == 0) opt.progress("vertex gather", double(d) / np);
+  }
+  if (opt.progress) opt.progress("vertex gather", 1.0);
+  r.summary.vertex_pairs_evaluated = gathered;
+  r.summary.vertex_rays_cast = rays;
+}
+
+// The dense method: the N × N form factors, then the linear solve.
+void solve_dense(const Scene& scene, const Visibility* vis_ptr, const DirectLighting& lights, const SolveOptions& opt,
+                 SolveResult& r, StageTimer& timer) {
+  SolveSummary& s = r.summary;
+  auto progress = [&](const std::string& stage) {
+    return opt.progress ? std::function<void(double)>([&, stage](double f) { opt.progress(stage, f); })
+                        : std::function<void(double)>();
+  };
   FillOptions fill;
   fill.quadrature = opt.quadrature;
   fill.tolerance = opt.accuracy;
-  fill.visibility = vis.get();
+  fill.visibility = vis_ptr;
   fill.rays = opt.rays;
   fill.seed = opt.seed;
   fill.progress = progress("form factors");
@@ -349,7 +484,7 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
   s.matrix_storage = F.description();
   s.matrix_bytes = F.bytes();
   // A convex enclosure (auto mode): the scene-wide test culled every pair's shaft at once.
-  if (!vis && opt.visibility == VisibilityMode::Auto) s.fill.pairs_culled = s.fill.pairs_evaluated;
+  if (!vis_ptr && opt.visibility == VisibilityMode::Auto) s.fill.pairs_culled = s.fill.pairs_evaluated;
   s.checks = check_form_factors(r.mesh, F);
   timer.lap("form_factors");
 
@@ -393,17 +528,8 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
   }
   s.energy = energy_balance(row_sums, direct, r);
   timer.lap("solve");
-
-  split_output_points(scene, opt.crease_angle_degrees, r);
-  s.output_points = static_cast<int>(r.points.size());
-  s.crease_angle_degrees = opt.crease_angle_degrees;
-  gather_at_points(scene, vis.get(), lights, opt, r);
-  timer.lap("vertex_gather");
-  // Never hand a NaN on to a result file: with finite, checked inputs this is a bug (exit 4).
-  if (!r.radiosity.allFinite() || !r.irradiance.allFinite() || !r.point_radiosity.allFinite() ||
-      !r.point_irradiance.allFinite())
-    throw std::logic_error(scene.source + ": the solution contains a non-finite value");
-  return r;
 }
+
+}  // namespace
 
 }  // namespace photometria

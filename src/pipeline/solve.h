@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "formfactors/formfactors.h"
+#include "hierarchical/hierarchical.h"
 #include "patching/patching.h"
 #include "pipeline/memory.h"
 #include "scene/scene.h"
@@ -23,7 +24,22 @@
 
 namespace photometria {
 
+// How the radiosity is solved: the dense N × N form-factor matrix (exact per pair, memory N²),
+// or hierarchical radiosity (hierarchical/hierarchical.h: links refined to an error ε, memory
+// following the links).
+enum class SolveMethod { Dense, Hierarchical };
+// "dense", "hierarchical" (the names of `solve --method`).
+std::string solve_method_name(SolveMethod method);
+// The method named `name` into `out`; false when unknown.
+bool solve_method_from_name(const std::string& name, SolveMethod& out);
+
 struct SolveOptions {
+  SolveMethod method = SolveMethod::Dense;
+  // Hierarchical method: ε (HierarchicalOptions::error) and the smallest element's longest edge
+  // (metres; 0 = 1/256 of the bounding diagonal). Its roots are the scene's faces; `patching`
+  // is the dense method's.
+  double hierarchical_error = 1e-2;
+  double min_element_edge = 0.0;
   PatchingOptions patching;  // patch size limits
   int quadrature = 1;        // receiver rule order, 1 = centroid
   double accuracy = 0.0;     // > 0: per-pair rule to this relative accuracy for
@@ -63,6 +79,8 @@ struct EnergyBalance {
 };
 
 struct SolveSummary {
+  std::string method;              // "dense" or "hierarchical" (SolveOptions::method)
+  HierarchicalStats hierarchical;  // the hierarchical method's statistics (method "hierarchical")
   int faces = 0;
   int patches = 0;
   double min_patch_area = 0.0, max_patch_area = 0.0, total_area = 0.0;
