@@ -354,4 +354,47 @@ TEST(Cli, HierarchicalMethodWritesTheLeavesAndReportsTheHierarchy) {
   const CliRun dense = run("solve " + mesh("cornell_box.obj") + " -o " + out + " --json");
   ASSERT_EQ(dense.exit_code, 0) << dense.err;
   EXPECT_EQ(nlohmann::json::parse(dense.out)["method"], "dense");
+// OBJ vn through the command line: the furnace cube whose corners each give all three faces one
+// vn (the diagonal, into the cube). Whole faces (--max-edge 2): 8 output points, whatever the
+// crease angle; without the vn its 90° edges keep 24. Cut into 4 × 4 patches per face: the vn
+// interpolated along the edges agree from both faces, so every patch vertex is one point (6 × 9
+// inside the faces, 12 × 3 on the edges, 8 corners; 150 without vn), and every point is exact
+// (B = E / (1 − ρ) = 2) with its tilted normal.
+TEST(Cli, VertexNormalsJoinTheCubesCorners) {
+  const fs::path dir = scratch();
+  std::ofstream(dir / "vn_cube.mtl") << "newmtl furnace\nKd 0.5\nKe 1\n";
+  const std::string vertices = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n";
+  const std::string normals =
+      "vn 1 1 1\nvn -1 1 1\nvn -1 -1 1\nvn 1 -1 1\nvn 1 1 -1\nvn -1 1 -1\nvn -1 -1 -1\nvn 1 -1 -1\n";
+  const int faces[6][4] = {{1, 2, 3, 4}, {5, 8, 7, 6}, {1, 5, 6, 2}, {2, 6, 7, 3}, {3, 7, 8, 4}, {4, 8, 5, 1}};
+  std::string with_vn, without_vn;
+  for (const auto& f : faces) {
+    with_vn += "f";
+    without_vn += "f";
+    for (int v : f) {
+      with_vn.append(" ").append(std::to_string(v)).append("//").append(std::to_string(v));
+      without_vn.append(" ").append(std::to_string(v));
+    }
+    with_vn += "\n";
+    without_vn += "\n";
+  }
+  const std::string head = "mtllib vn_cube.mtl\n" + vertices + normals + "usemtl furnace\n";
+  std::ofstream(dir / "vn_cube.obj") << head + with_vn;
+  std::ofstream(dir / "no_vn_cube.obj") << head + without_vn;
+  const std::string out = (dir / "vn_cube.vtu").string();
+  auto solve = [&](const std::string& file, const std::string& options) {
+    const CliRun r = run("solve " + (dir / file).string() + " -o " + out + " --json --tolerance 1e-12 " + options);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return r.exit_code == 0 ? nlohmann::json::parse(r.out)["output_points"].get<int>() : -1;
+  };
+  for (const std::string options : {"--max-edge 2", "--max-edge 2 --crease-angle 0", "--max-edge 0.25"}) {
+    SCOPED_TRACE(options);
+    const int points = solve("vn_cube.obj", options);
+    EXPECT_EQ(points, options == "--max-edge 0.25" ? 6 * 9 + 12 * 3 + 8 : 8);
+    const VtuGrid g = photometria::read_vtu(out);
+    EXPECT_EQ(g.points.size(), size_t(points));
+    for (double b : array(g.point_arrays, "radiosity").values) EXPECT_NEAR(b, 2.0, 1e-6);
+  }
+  EXPECT_EQ(solve("no_vn_cube.obj", "--max-edge 2"), 24);
+  EXPECT_EQ(solve("no_vn_cube.obj", "--max-edge 0.25"), 150);
 }

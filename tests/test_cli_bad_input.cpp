@@ -157,6 +157,12 @@ TEST_F(BadInput, FaceIndexOutOfRange) {
                  "--emission 1");
 }
 
+// A vn becomes a point's normal, so one without a direction is refused where it stands.
+TEST_F(BadInput, VertexNormalWithoutDirection) {
+  expect_failure(write("r.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0 0 0\nf 1//1 2//2 3//1\n"), 1,
+                 {"r.obj:5", "vn 0 0 0 has no direction"}, "--emission 1");
+}
+
 TEST_F(BadInput, FaceWithTwoVertices) {
   expect_failure(write("r.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n"), 1, {"r.obj:4", "f with 2 vertices"},
                  "--emission 1");

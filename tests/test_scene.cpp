@@ -554,6 +554,11 @@ TEST(SceneBadInput, ObjLines) {
       {v3 + "f 1/x 2 3\n", {"bad.obj:4:", "'1/x'"}},
       {v3 + "f 1//5 2 3\n", {"bad.obj:4:", "normal index 5 out of range"}},
       {"vn 0 0 x\n", {"bad.obj:1:", "bad normal value 'x'"}},
+      {"vn 0 0 1\nvn 0 0 0\n", {"bad.obj:2:", "vn 0 0 0 has no direction"}},
+      {v3 + "vn 0 -0 0.0\nf 1//1 2//1 3//1\n", {"bad.obj:4:", "vn 0 -0 0.0 has no direction"}},
+      {"vn 1e300 1e300 0\n", {"bad.obj:1:", "vn 1e300 1e300 0 has no direction"}},  // length overflows
+      {"vn 0 0 inf\n", {"bad.obj:1:", "'inf'", "finite"}},
+      {"vn 0 0\n", {"bad.obj:1:", "vn needs 3 numbers, got 2"}},
       {"vt 0.5 y\n", {"bad.obj:1:", "'y'"}},
       {v3, {"bad.obj", "no faces"}},
       {v3 + "f 1 2 3 " +
@@ -569,6 +574,82 @@ TEST(SceneBadInput, ObjLines) {
     SCOPED_TRACE(c.text.substr(0, 60));
     expect_error(dir.write("bad.obj", c.text), ErrorKind::BadInput, c.parts);
   }
+}
+
+// OBJ vn are kept per corner (Face::corner_normals), normalised, in the corners' order: through
+// welding (a repeated corner keeps the first one's vn), the split of a non-planar quad (each
+// piece keeps its corners' vn) and --flip-normals (Face::reverse negates them); faces without vn
+// have none.
+TEST(ObjLoading, CornerNormalsFollowTheirCorners) {
+  TempDir dir;
+  const std::string path = dir.write("vn.obj",
+                                     "v 0 0 0\nv 1 0 0\nv 1 1 0\n"             // triangle, no vn
+                                     "v 0 0 1\nv 1 0 1\nv 1 1 1.3\nv 0 1 1\n"  // non-planar quad
+                                     "v 0 0 2\nv 1 0 2\nv 1 0 2\nv 0 1 2\n"    // 9 and 10 coincide
+                                     "vn 0 0 2\nvn 0 0.6 0.8\nvn 0.6 0 0.8\nvn -0.6 0 0.8\n"
+                                     "f 1 2 3\n"
+                                     "f 4//1 5//2 6//3 7//4\n"
+                                     "f 8//1 9//2 10//3 11//4\n");  // welded: a triangle, 10's vn dropped
+  // The vn given at each corner, told apart by x + 2y + 10z.
+  const std::map<double, Vec3> quad_vn = {
+      {10.0, {0, 0, 1}}, {11.0, {0, 0.6, 0.8}}, {16.0, {0.6, 0, 0.8}}, {12.0, {-0.6, 0, 0.8}}};
+  const std::map<double, Vec3> welded_vn = {{20.0, {0, 0, 1}}, {21.0, {0, 0.6, 0.8}}, {22.0, {-0.6, 0, 0.8}}};
+  for (const bool flip : {false, true}) {
+    SCOPED_TRACE(flip ? "flipped" : "as read");
+    LoadOptions o;
+    o.flip_normals = flip;
+    const Scene s = load_scene(path, o);
+    ASSERT_EQ(s.faces.size(), 4u);
+    EXPECT_EQ(s.stats.split_nonplanar, 1);
+    int pieces = 0, welded = 0;
+    for (const Face& f : s.faces) {
+      if (f.source_face == 0) {
+        EXPECT_TRUE(f.corner_normals.empty());
+        continue;
+      }
+      ASSERT_EQ(f.corner_normals.size(), 3u);
+      ++(f.source_face == 1 ? pieces : welded);
+      for (size_t k = 0; k < 3; ++k) {
+        const Vec3& p = s.vertices[size_t(f.vertices[k])];
+        const Vec3 want = (f.source_face == 1 ? quad_vn : welded_vn).at(p.x() + 2 * p.y() + 10 * p.z());
+        EXPECT_NEAR((f.corner_normals[k] - (flip ? -want : want)).norm(), 0.0, 1e-15) << p.transpose();
+      }
+    }
+    EXPECT_EQ(pieces, 2);
+    EXPECT_EQ(welded, 1);
+  }
+}
+
+// A face that orientation fixing flips (wound against the rest of its closed surface) has its
+// vn negated with it, corner by corner.
+TEST(ObjLoading, CornerNormalsOfAFlippedFaceAreNegated) {
+  TempDir dir;
+  // A tetrahedron wound outward but for its slanted face (f 2 4 3 faces in, against the rest).
+  const std::string path = dir.write("tetra.obj",
+                                     "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n"
+                                     "vn 0 0 -1\nvn 0 -1 0\nvn -1 0 0\nvn -1 -2 -2\nvn -2 -1 -2\nvn -2 -2 -1\n"
+                                     "f 1//1 3//1 2//1\nf 1//2 2//2 4//2\nf 1//3 4//3 3//3\n"
+                                     "f 2//4 4//6 3//5\n");
+  const Scene s = load_scene(path);
+  EXPECT_EQ(s.stats.flipped_faces, 1);
+  const std::map<double, Vec3> slanted_vn = {// by x + 2y + 3z, as the file gave them, then normalised
+                                             {1.0, Vec3(-1, -2, -2) / 3},
+                                             {2.0, Vec3(-2, -1, -2) / 3},
+                                             {3.0, Vec3(-2, -2, -1) / 3}};
+  int slanted = 0;
+  for (const Face& f : s.faces) {
+    ASSERT_EQ(f.corner_normals.size(), 3u);
+    if (f.source_face != 3) continue;
+    ++slanted;
+    // Now wound outward: its vn (given pointing in, with the file's winding) point out.
+    EXPECT_GT(newell_vector(s.face_polygon(3)).dot(Vec3(1, 1, 1)), 0.0);
+    for (size_t k = 0; k < 3; ++k) {
+      const Vec3& p = s.vertices[size_t(f.vertices[k])];
+      EXPECT_NEAR((f.corner_normals[k] + slanted_vn.at(p.x() + 2 * p.y() + 3 * p.z())).norm(), 0.0, 1e-15)
+          << p.transpose();
+    }
+  }
+  EXPECT_EQ(slanted, 1);
 }
 
 TEST(SceneBadInput, MtlValues) {

@@ -4,6 +4,7 @@
 #include <sys/resource.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -56,14 +57,79 @@ void fill_materials(const Scene& scene, SolveResult& r) {
   }
 }
 
+// Two shading normals from the file (unit vectors) count as equal within this distance (about
+// 0.00006°): vn meant as one normal (the same vn line, or the same corners' vn interpolated along
+// an edge from either face) agree to rounding, far closer than any crease the file means.
+constexpr double kSameVertexNormal = 1e-6;
+
+// The shading normal the file gives (OBJ vn, Face::corner_normals) at patch p's corner k, or
+// zero when it gives none there. At a face's vertex it is that corner's vn; elsewhere on the
+// face (patch corners on its edges or inside it) the corners' vn interpolated as Phong shading
+// does (Bui Tuong Phong, "Illumination for computer generated pictures", Commun. ACM 18(6),
+// 1975), with mean value coordinates (Floater, "Mean value coordinates", Computer Aided
+// Geometric Design 20(1), 2003, eq. (5.1): w_i = (tan(α_{i-1}/2) + tan(α_i/2)) / |v_i − x|,
+// α_i the angle at x between v_i and v_{i+1}), which are the barycentric coordinates on a
+// triangle and linear along every edge, so two faces sharing an edge interpolate alike along it.
+// A vn pointing into the back of the face (n · face normal <= 0: a file whose vn disagree with
+// its winding; flipping negates the vn with the face, Face::reverse) is not usable as a shading
+// normal there (the point would look into the surface and its own patches' gap would be
+// meaningless): the patch corners it touches count as having no vn, and the smoothing groups or
+// the crease angle decide.
+Vec3 given_normal(const Scene& scene, const PatchMesh& mesh, const Patch& p, int k) {
+  const Face& f = scene.faces[size_t(p.face)];
+  if (f.corner_normals.empty()) return Vec3::Zero();
+  const Vec3& x = mesh.points[size_t(p.corners[size_t(k)])];
+  const size_t n = f.vertices.size();
+  std::array<double, 8> w{};  // faces are triangles or quads after loading
+  if (n > w.size()) return Vec3::Zero();
+  auto vertex = [&](size_t i) -> const Vec3& { return scene.vertices[size_t(f.vertices[i % n])]; };
+  double diameter = 0.0;
+  for (size_t i = 0; i < n; ++i) diameter = std::max(diameter, (vertex(i + 1) - vertex(i)).norm());
+  const double eps = 1e-9 * diameter;
+  bool placed = false;
+  for (size_t i = 0; i < n && !placed; ++i)  // at a vertex
+    if ((x - vertex(i)).norm() <= eps) w[i] = 1.0, placed = true;
+  for (size_t i = 0; i < n && !placed; ++i) {  // on an edge: linear along it
+    const Vec3 e = vertex(i + 1) - vertex(i);
+    const double t = (x - vertex(i)).dot(e) / e.squaredNorm();
+    if (t > 0.0 && t < 1.0 && (x - vertex(i) - t * e).norm() <= eps) w[i] = 1.0 - t, w[(i + 1) % n] = t, placed = true;
+  }
+  if (!placed) {  // inside: mean value coordinates
+    double sum = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+      const Vec3 a = vertex(i + n - 1) - x, b = vertex(i) - x, c = vertex(i + 1) - x;
+      // tan(α/2) = |u × v| / (|u||v| + u · v)
+      auto tan_half = [](const Vec3& u, const Vec3& v) { return u.cross(v).norm() / (u.norm() * v.norm() + u.dot(v)); };
+      w[i] = (tan_half(a, b) + tan_half(b, c)) / b.norm();
+      sum += w[i];
+    }
+    if (!(sum > 0.0) || !std::isfinite(sum)) return Vec3::Zero();
+    for (size_t i = 0; i < n; ++i) w[i] /= sum;
+  }
+  Vec3 normal = Vec3::Zero();
+  for (size_t i = 0; i < n; ++i) {
+    if (w[i] <= 0.0) continue;
+    const Vec3& vn = f.corner_normals[i];
+    if (!(vn.dot(p.normal) > 0.0)) return Vec3::Zero();  // no vn at that corner, or into the face's back
+    normal += w[i] * vn;
+  }
+  // A convex combination of vectors in the face's front half-space stays there.
+  return normal.norm() > 1e-12 ? Vec3(normal.normalized()) : Vec3(Vec3::Zero());
+}
+
 // Whether the corners of patches a and b at one vertex share an output point (solve.h
-// SolveOptions::crease_angle_degrees): the same material, and then the same plane, or the same
-// nonzero smoothing group where the file gave groups, or else normals within the crease angle.
-bool smooth_across(const Scene& scene, const Patch& a, const Patch& b, double cos_crease) {
+// SolveOptions::crease_angle_degrees): the same material, and then (the first rule that applies)
+// the same face; where both corners carry a vn from the file (given_normal; zero = none), equal
+// vn; the same plane; the same nonzero smoothing group where the file gave groups; normals
+// within the crease angle.
+bool smooth_across(const Scene& scene, const Patch& a, const Patch& b, const Vec3& vn_a, const Vec3& vn_b,
+                   double cos_crease) {
   const Face &fa = scene.faces[size_t(a.face)], &fb = scene.faces[size_t(b.face)];
   if (fa.material != fb.material) return false;
+  if (a.face == b.face) return true;
+  if (!vn_a.isZero(0.0) && !vn_b.isZero(0.0)) return (vn_a - vn_b).norm() <= kSameVertexNormal;
   const double cos_ab = a.normal.dot(b.normal);
-  if (a.face == b.face || cos_ab > 1.0 - 1e-9) return true;
+  if (cos_ab > 1.0 - 1e-9) return true;
   if (fa.smoothing_group >= 0 && fb.smoothing_group >= 0)
     return fa.smoothing_group > 0 && fa.smoothing_group == fb.smoothing_group;
   return cos_ab >= cos_crease;
@@ -79,7 +145,10 @@ double corner_angle(const PatchMesh& mesh, const Patch& p, int k) {
 
 // Output points: at each patch vertex, the corners of the patches there are joined into clusters
 // (smooth_across, closed transitively: a smooth fan is one cluster, a cube corner three), one
-// point per cluster. Its normal is the angle-weighted mean of the cluster's patch normals,
+// point per cluster. Two clusters whose corners carry different vn are not joined through corners
+// without one: the file's vn win over the angle and the groups. The point's normal is the file's
+// vn where every corner of the cluster carries one (their normalised mean: they agree to
+// kSameVertexNormal), else the angle-weighted mean of the cluster's patch normals,
 // n = normalize(Σ α_i n_i) with α_i the patch's interior angle at the vertex (Thürmer & Wüthrich,
 // "Computing vertex normals from polygonal facets", J. Graphics Tools 3(1), 1998): it does not
 // depend on how the faces around the vertex are split into triangles.
@@ -94,23 +163,38 @@ void split_output_points(const Scene& scene, double crease_angle_degrees, SolveR
     for (int k = 0; k < p.corner_count; ++k) at_vertex[size_t(p.corners[size_t(k)])].emplace_back(i, k);
   }
   std::vector<int> parent;
+  std::vector<Vec3> vn, cluster_vn;  // per corner at the vertex: its vn; per root: its cluster's (zero = none)
   for (size_t v = 0; v < at_vertex.size(); ++v) {
     const auto& corners = at_vertex[v];
     const int n = static_cast<int>(corners.size());
     parent.resize(size_t(n));
-    for (int a = 0; a < n; ++a) parent[size_t(a)] = a;
+    vn.resize(size_t(n));
+    for (int a = 0; a < n; ++a) {
+      parent[size_t(a)] = a;
+      vn[size_t(a)] =
+          given_normal(scene, mesh, mesh.patches[size_t(corners[size_t(a)].first)], corners[size_t(a)].second);
+    }
+    cluster_vn = vn;
     auto root = [&](int a) {
       while (parent[size_t(a)] != a) a = parent[size_t(a)] = parent[size_t(parent[size_t(a)])];
       return a;
     };
     for (int a = 0; a < n; ++a)
-      for (int b = a + 1; b < n; ++b)
-        if (root(a) != root(b) && smooth_across(scene, mesh.patches[size_t(corners[size_t(a)].first)],
-                                                mesh.patches[size_t(corners[size_t(b)].first)], cos_crease))
-          parent[size_t(root(a))] = root(b);
+      for (int b = a + 1; b < n; ++b) {
+        const int ra = root(a), rb = root(b);
+        if (ra == rb ||
+            !smooth_across(scene, mesh.patches[size_t(corners[size_t(a)].first)],
+                           mesh.patches[size_t(corners[size_t(b)].first)], vn[size_t(a)], vn[size_t(b)], cos_crease))
+          continue;
+        const Vec3 &na = cluster_vn[size_t(ra)], &nb = cluster_vn[size_t(rb)];
+        if (!na.isZero(0.0) && !nb.isZero(0.0) && (na - nb).norm() > kSameVertexNormal) continue;
+        parent[size_t(ra)] = rb;
+        if (nb.isZero(0.0)) cluster_vn[size_t(rb)] = na;
+      }
     for (int a = 0; a < n; ++a) {
       if (root(a) != a) continue;
-      Vec3 normal_sum = Vec3::Zero(), approach_sum = Vec3::Zero();
+      Vec3 normal_sum = Vec3::Zero(), vn_sum = Vec3::Zero(), approach_sum = Vec3::Zero();
+      bool all_vn = true;
       const int o = static_cast<int>(r.points.size());
       int material = 0;
       for (int b = 0; b < n; ++b) {
@@ -118,13 +202,16 @@ void split_output_points(const Scene& scene, double crease_angle_degrees, SolveR
         const auto [i, k] = corners[size_t(b)];
         const Patch& p = mesh.patches[size_t(i)];
         normal_sum += corner_angle(mesh, p, k) * p.normal;
+        vn_sum += vn[size_t(b)];
+        all_vn = all_vn && !vn[size_t(b)].isZero(0.0);
         approach_sum += p.centroid - mesh.points[v];
         material = scene.faces[size_t(p.face)].material;
         r.cells[size_t(i)][size_t(k)] = o;
       }
       // A cluster whose normals cancel (a two-sided sheet in one smoothing group) keeps one of them.
-      const Vec3 normal = normal_sum.norm() > 1e-12 ? Vec3(normal_sum.normalized())
-                                                    : mesh.patches[size_t(corners[size_t(a)].first)].normal;
+      const Vec3 normal = all_vn                      ? Vec3(vn_sum.normalized())
+                          : normal_sum.norm() > 1e-12 ? Vec3(normal_sum.normalized())
+                                                      : mesh.patches[size_t(corners[size_t(a)].first)].normal;
       const Vec3 u = approach_sum - approach_sum.dot(normal) * normal;
       r.points.push_back({mesh.points[v], normal, u.norm() > 0 ? Vec3(u.normalized()) : Vec3::Zero(), material});
     }

@@ -6,8 +6,9 @@
 // irradiance is gathered at the vertex itself from the converged patch radiosities,
 //   H(x) = Σ_j F(dA_x -> P_j) V(x, P_j) B_j,   B(x) = E + ρ H(x),
 // not averaged from neighbouring cells. Output points are split where faces meet at a crease
-// (sharper than the crease angle, or across smoothing groups) or a material change, so every
-// point has one normal and one material; faces meeting smoothly share a point.
+// (OBJ vn that differ, else across smoothing groups, else sharper than the crease angle) or a
+// material change, so every point has one normal and one material; faces meeting smoothly share
+// a point.
 #pragma once
 
 #include <functional>
@@ -51,7 +52,11 @@ struct SolveOptions {
   // Output points (Baum et al. 1989 vertex gather): patches meeting at a vertex share one point,
   // with their angle-weighted mean normal, when their normals differ by less than this angle
   // (degrees, in [0, 180); 0: only coplanar patches share, every crease is sharp). The same
-  // material is required. Smoothing groups from the file (Face::smoothing_group) win over the angle.
+  // material is required. What the file says wins over the angle, in this order: where both
+  // corners carry an OBJ vn (Face::corner_normals, interpolated along edges and inside faces),
+  // they share iff the vn are equal, and a point whose corners all carry one takes it as its
+  // normal; else smoothing groups (Face::smoothing_group) decide where the file gave them.
+  // A vn pointing into the back of its face is not used (that corner counts as without one).
   double crease_angle_degrees = 30.0;
   SolverOptions solver;
   int threads = 0;  // 0 = all cores

@@ -26,10 +26,22 @@ double used_diagonal(const Scene& s) {
   return s.faces.empty() ? 0.0 : (hi - lo).norm();
 }
 
-// After welding a face may visit a vertex twice in a row (also last -> first).
-void drop_repeats(std::vector<int>& v) {
-  v.erase(std::unique(v.begin(), v.end()), v.end());
-  while (v.size() > 1 && v.front() == v.back()) v.pop_back();
+// After welding a face may visit a vertex twice in a row (also last -> first). The corner
+// normals go with their corners: of a repeat, the first corner's normal is kept.
+void drop_repeats(Face& f) {
+  std::vector<int>& v = f.vertices;
+  std::vector<Vec3>& n = f.corner_normals;
+  const bool normals = n.size() == v.size();
+  size_t kept = 0;
+  for (size_t k = 0; k < v.size(); ++k)
+    if (kept == 0 || v[k] != v[kept - 1]) {
+      v[kept] = v[k];
+      if (normals) n[kept] = n[k];
+      ++kept;
+    }
+  while (kept > 1 && v[0] == v[kept - 1]) --kept;
+  v.resize(kept);
+  if (normals) n.resize(kept);
 }
 
 int distinct_count(std::vector<int> v) {
@@ -79,7 +91,7 @@ class FaceCleaner {
 
   // Appends `f` (indices already welded) to `out`, as it is, split, or not at all.
   void add(Face f, std::vector<Face>& out) {
-    drop_repeats(f.vertices);
+    drop_repeats(f);
     const Polygon p = polygon(f.vertices);
     if (distinct_count(f.vertices) < 3 || polygon_area(p) <= min_area_) {
       ++stats_.dropped_degenerate;
@@ -93,9 +105,13 @@ class FaceCleaner {
     ++(planar ? stats_.split_polygons : stats_.split_nonplanar);
     const Triangles pieces = !planar && p.size() == 4 ? split_quad(p) : triangulate(p);
     for (const auto& [a, b, c] : pieces) {
+      // The pieces keep the face's material, groups and the normals of the corners they keep.
       Face t = f;
       t.vertices = {f.vertices[static_cast<size_t>(a)], f.vertices[static_cast<size_t>(b)],
                     f.vertices[static_cast<size_t>(c)]};
+      if (!f.corner_normals.empty())
+        t.corner_normals = {f.corner_normals[static_cast<size_t>(a)], f.corner_normals[static_cast<size_t>(b)],
+                            f.corner_normals[static_cast<size_t>(c)]};
       // Pieces of zero area (collinear vertices of the polygon) carry nothing.
       if (polygon_area(polygon(t.vertices)) > min_area_) out.push_back(std::move(t));
     }

@@ -113,8 +113,18 @@ void add_faces(RawScene& raw, const std::vector<tinyobj::shape_t>& shapes, const
     size_t offset = 0;
     for (size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f, ++face_no) {
       Face face;
-      for (size_t k = 0; k < shape.mesh.num_face_vertices[f]; ++k)
-        face.vertices.push_back(shape.mesh.indices[offset + k].vertex_index);
+      bool has_normal = false;
+      for (size_t k = 0; k < shape.mesh.num_face_vertices[f]; ++k) {
+        const tinyobj::index_t& corner = shape.mesh.indices[offset + k];
+        face.vertices.push_back(corner.vertex_index);
+        // tinyobjloader has resolved negative (relative) indices; -1: no vn at this corner. The
+        // values are the scan's (doubles, normalised), not tinyobjloader's floats.
+        const int vn = corner.normal_index;
+        const bool given = vn >= 0 && size_t(vn) < scan.normals.size();
+        face.corner_normals.push_back(given ? scan.normals[size_t(vn)] : Vec3(Vec3::Zero()));
+        has_normal = has_normal || given;
+      }
+      if (!has_normal) face.corner_normals.clear();
       offset += shape.mesh.num_face_vertices[f];
       const int id = shape.mesh.material_ids[f];
       face.material = id >= 0
@@ -151,6 +161,9 @@ RawScene read_obj(const std::string& path, const LoadOptions& options) {
   std::vector<int> mtl_index;
   add_mtl_materials(raw, materials, reader, mtl_index);
   add_faces(raw, shapes, scan, mtl_index, options, path);
+  if (attrib.normals.size() != 3 * scan.normals.size())
+    throw_bad_input(at(path) + ": tinyobjloader read " + std::to_string(attrib.normals.size() / 3) +
+                    " normals, expected " + std::to_string(scan.normals.size()));
   if (raw.scene.faces.size() != scan.face_material.size() || attrib.vertices.size() != 3 * scan.vertices.size())
     throw_bad_input(at(path) + ": tinyobjloader read " + std::to_string(raw.scene.faces.size()) + " faces and " +
                     std::to_string(attrib.vertices.size() / 3) + " vertices, expected " +

@@ -57,6 +57,7 @@ RawScene read_view3d(const std::string& path, const LoadOptions& options);      
 // force, which tinyobjloader forgets when the name is not in any .mtl.
 struct ObjScan {
   std::vector<Vec3> vertices;
+  std::vector<Vec3> normals;               // `vn`, normalised (zero-length or overflowing ones are refused)
   std::vector<std::string> face_material;  // one per face, in file order ("" = no usemtl yet)
 };
 ObjScan scan_obj(const std::string& path, std::string_view text);

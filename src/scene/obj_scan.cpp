@@ -35,8 +35,7 @@ class ObjScanner {
     if (t[0] == "v") {
       vertex(n, t);
     } else if (t[0] == "vn") {
-      numbers(n, t, 3, 3, "normal value");
-      ++normals_;
+      normal(n, t);
     } else if (t[0] == "vt") {
       numbers(n, t, 1, 3, "texture coordinate");
       ++texcoords_;
@@ -59,6 +58,22 @@ class ObjScanner {
     for (int k = 0; k < 3; ++k) p[k] = finite_number(path_, n, t[k + 1], "vertex coordinate");
     for (size_t k = 4; k < t.size(); ++k) finite_number(path_, n, t[k], "vertex value");
     out_.vertices.push_back(p);
+  }
+
+  // A vn becomes a shading normal (Face::corner_normals), so it must have a direction: its
+  // length must be positive and finite (a vn of 1e300 components overflows when squared).
+  void normal(long n, const Tokens& t) {
+    numbers(n, t, 3, 3, "normal value");
+    Vec3 v;
+    for (int k = 0; k < 3; ++k) v[k] = finite_number(path_, n, t[size_t(k) + 1], "normal value");
+    const double length = v.norm();
+    if (!(length > 0.0) || !std::isfinite(length)) {
+      std::string text = "vn";
+      for (size_t k = 1; k < 4; ++k) text.append(" ").append(t[k]);
+      fail(path_, n, text + " has no direction (zero or overflowing length)");
+    }
+    out_.normals.push_back(v / length);
+    ++normals_;
   }
 
   void numbers(long n, const Tokens& t, size_t min, size_t max, const char* what) {

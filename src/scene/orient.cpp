@@ -121,8 +121,7 @@ void fix_orientation(Scene& s, bool flip_inconsistent) {
     if (flip_inconsistent)
       for (int f : faces)
         if (side[static_cast<size_t>(f)] == minority) {
-          auto& v = s.faces[static_cast<size_t>(f)].vertices;
-          std::reverse(v.begin(), v.end());
+          s.faces[static_cast<size_t>(f)].reverse();  // with its corner normals (Face::reverse)
           ++s.stats.flipped_faces;
         }
 

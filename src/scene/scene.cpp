@@ -16,6 +16,12 @@ Polygon Scene::face_polygon(int f) const {
   return p;
 }
 
+void Face::reverse() {
+  std::reverse(vertices.begin(), vertices.end());
+  std::reverse(corner_normals.begin(), corner_normals.end());
+  for (Vec3& n : corner_normals) n = -n;
+}
+
 namespace scene_detail {
 
 RawScene read_mesh_file(const std::string& path, const LoadOptions& options) {
@@ -63,7 +69,7 @@ Scene load_scene(const std::string& path, const LoadOptions& options) {
                     " faces read)");
   drop_duplicate_faces(raw.scene);
   if (options.flip_normals) {
-    for (Face& f : raw.scene.faces) std::reverse(f.vertices.begin(), f.vertices.end());
+    for (Face& f : raw.scene.faces) f.reverse();
     raw.scene.stats.flipped_all = true;
   }
   fix_orientation(raw.scene, options.fix_orientation);

@@ -54,6 +54,12 @@ struct Face {
   // OBJ smoothing group (`s N`): -1 when the file gives none (the crease angle decides), 0 for
   // `s off` (sharp against every other face), N > 0: faces of one group share output points.
   long smoothing_group = -1;
+  // OBJ `vn` per corner, parallel to `vertices`: the unit shading normal the file gives at that
+  // corner, meant to point to the face's front; Vec3::Zero() at a corner without one. Empty when
+  // no corner has one (every other format). Kept through welding, splitting and flipping
+  // (reverse()). Where two faces' corners at a vertex both carry one, they decide whether the
+  // faces share an output point (pipeline/solve.h SolveOptions::crease_angle_degrees).
+  std::vector<Vec3> corner_normals = {};
   // View3D subsurface (`base` field): at --by group, this face's factors and area are also taken
   // out of group `base_group` (the base surface's), which so becomes the base minus its
   // subsurfaces; -1 when none.
@@ -62,6 +68,12 @@ struct Face {
   // View3D `M` surface: taken out of base_group, which also keeps its area; its own group sees
   // only the base (F = 1) and is seen only by it.
   bool mask_surface = false;
+
+  // Reverses the winding (the front becomes the back) together with the corner normals, which
+  // are negated: a vn is meant to point to the front the file's winding gave the face, so once
+  // the front is the other side the shading normal follows it (else the face's output points
+  // would look into its back and gather nothing).
+  void reverse();
 };
 
 // What loading did to the input, reported in the solve summary.
