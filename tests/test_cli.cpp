@@ -354,6 +354,8 @@ TEST(Cli, HierarchicalMethodWritesTheLeavesAndReportsTheHierarchy) {
   const CliRun dense = run("solve " + mesh("cornell_box.obj") + " -o " + out + " --json");
   ASSERT_EQ(dense.exit_code, 0) << dense.err;
   EXPECT_EQ(nlohmann::json::parse(dense.out)["method"], "dense");
+}
+
 // OBJ vn through the command line: the furnace cube whose corners each give all three faces one
 // vn (the diagonal, into the cube). Whole faces (--max-edge 2): 8 output points, whatever the
 // crease angle; without the vn its 90° edges keep 24. Cut into 4 × 4 patches per face: the vn
