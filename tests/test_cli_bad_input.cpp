@@ -229,10 +229,10 @@ TEST_F(BadInput, MemoryEstimateAboveTheLimitIsRefused) {
   write("furnace.mtl", kFurnaceMtl);
   const std::string obj = write("cube.obj", cube());
   // --max-edge 0.05: 20 × 20 patches per wall, N = 2400, dense form factors alone 2400² × 8 bytes = 44 MiB.
-  expect_failure(
-      obj, 1,
-      {"needs ", " MiB for 2,400 patches (dense double form factors)", "--max-memory is 16 MiB", "raise --max-edge"},
-      "--max-edge 0.05 --max-memory 16M");
+  expect_failure(obj, 1,
+                 {"needs ", " MiB for 2,400 patches (dense double form factors)", "--max-memory is 16 MiB",
+                  "raise --max-edge", "use --method hierarchical"},
+                 "--max-edge 0.05 --max-memory 16M");
   // The figure: at least the matrix (44 MiB), plus well under 4 kB per patch for the rest.
   const CliRun r = run("solve " + obj + " -o " + path("out.vtu") + " --max-edge 0.05 --max-memory 16M");
   const size_t at = r.err.find("needs ");

@@ -363,8 +363,8 @@ EnergyBalance energy_balance(const Eigen::VectorXd& row_sums, const ChannelMatri
 
 // The storage and the memory check (memory.h check_storage), recorded in the summary.
 StorageChoice check_memory(const MemoryEstimate& estimate, double patches, const SolveOptions& opt, SolveSummary& s) {
-  const StorageChoice c =
-      check_storage(estimate, patches, 0.0, opt.matrix_layout, opt.matrix_precision, opt.max_memory_bytes, "needs");
+  const StorageChoice c = check_storage(estimate, patches, 0.0, opt.matrix_layout, opt.matrix_precision,
+                                        opt.max_memory_bytes, "needs", "", "use --method hierarchical");
   s.memory = estimate;
   s.matrix_storage = c.storage;
   s.matrix_storage_reason = c.reason;
