@@ -14,10 +14,12 @@ namespace pm = photometria;
 
 namespace {
 
-// Hierarchical: elements down to 1/64 of the unit cube (the test's time); dense: patches of max_edge.
-pm::SolveResult solve(const pm::Scene& scene, pm::SolveMethod method, double error, double max_edge = 0.0) {
+// Hierarchical: elements down to min_element (a coarse limit keeps the sanitizer run short);
+// dense: patches of max_edge.
+pm::SolveResult solve(const pm::Scene& scene, pm::SolveMethod method, double error, double max_edge = 0.0,
+                      double min_element = 1.0 / 16) {
   pm::SolveOptions opt;
-  opt.min_element_edge = 1.0 / 64;
+  opt.min_element_edge = min_element;
   opt.method = method;
   opt.hierarchical_error = error;
   opt.patching.max_edge = max_edge;
@@ -26,7 +28,7 @@ pm::SolveResult solve(const pm::Scene& scene, pm::SolveMethod method, double err
 }
 
 // A closed unit cube whose floor emits, with a box standing on the floor (it shadows the walls
-// and the floor around it): every coordinate dyadic, so the dense grid of edge 1/32 and the
+// and the floor around it): every coordinate dyadic, so the dense grid of edge 1/16 and the
 // hierarchy's leaves share output points.
 pm::Scene shadowed_cube() {
   pm::Scene s = builders::cube_floor_emitting(0.5);
@@ -98,7 +100,7 @@ TEST(Hierarchical, FurnaceCubeIsWithinTheRequestedError) {
 
 TEST(Hierarchical, AgreesWithTheDenseSolveAtSharedPointsAndConverges) {
   const pm::Scene scene = shadowed_cube();
-  const pm::SolveResult dense = solve(scene, pm::SolveMethod::Dense, 0.0, 1.0 / 32);
+  const pm::SolveResult dense = solve(scene, pm::SolveMethod::Dense, 0.0, 1.0 / 16);
   double previous = 1.0;
   for (double error : {1e-1, 3e-2}) {
     const pm::SolveResult h = solve(scene, pm::SolveMethod::Hierarchical, error);
@@ -130,6 +132,7 @@ TEST(Hierarchical, RefinementStopsAtTheMemoryLimit) {
   EXPECT_EQ(s.leaves.size(), s.radiosity.rows());
   o.max_memory_bytes = 0.0;
   o.error = 1e-1;
+  o.min_edge = 1.0 / 16;
   pm::HierarchicalRadiosity unlimited(scene, roots, nullptr, lights, o);
   EXPECT_FALSE(unlimited.solve().stats.stopped_by_memory);
 }
