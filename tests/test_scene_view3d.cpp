@@ -352,7 +352,9 @@ TEST(View3dInput, EveryControlKeyIsReportedAsHonouredOrIgnored) {
   EXPECT_EQ(notes[4],
             "encl=1: not applied (rows are not normalised; use --enforce both for View3D's enclosure "
             "adjustment)");
-  EXPECT_EQ(notes[5].rfind("emit=1: ignored: geometric view factors are written", 0), 0u);
+  EXPECT_EQ(notes[5],
+            "emit=1: honoured: Hottel's total exchange factors (script-F) with the surfaces' emissivities "
+            "are written");
   EXPECT_EQ(notes[6].rfind("list=2: ignored", 0), 0u);
   job.enforcement = Enforcement::Both;
   EXPECT_EQ(view3d_control_notes(s.settings["view3d"], job)[4], "encl=1: honoured by --enforce both");

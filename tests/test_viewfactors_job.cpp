@@ -63,6 +63,7 @@ const std::set<std::string> kAlwaysKeys = {"scene",
                                            "occluded_accuracy",
                                            "output",
                                            "format",
+                                           "factors",
                                            "level",
                                            "surfaces",
                                            "patches",
@@ -138,6 +139,7 @@ TEST(ViewFactorJob, FaceLevelCsvResultAndSummaries) {
   const nlohmann::json j = viewfactor_summary_json(r);
   EXPECT_EQ(keys_of(j), kAlwaysKeys);
   EXPECT_EQ(j["format"], "csv");
+  EXPECT_EQ(j["factors"], "geometric");
   EXPECT_EQ(j["level"], "face");
   EXPECT_EQ(j["enforce"], "none");
   EXPECT_EQ(j["surfaces"], 18);
@@ -276,4 +278,47 @@ TEST(ViewFactorJob, NamesRoundTrip) {
   EXPECT_FALSE(aggregate_level_from_name("Group", l));
   EXPECT_FALSE(enforcement_from_name("", e));
   EXPECT_FALSE(view_factor_format_from_name("vs3", f));
+}
+
+// A .vs3 with C emit=1 (tests/data/view3d_box_emit.vs3): the job writes Hottel's exchange
+// factors of the enforced geometric factors, keeps the latter's checks, and the memory estimate
+// counts the solve's matrices.
+TEST(ViewFactorJob, EmitOneGivesExchangeFactorsOfTheEnforcedMatrix) {
+  const fs::path dir = test_scratch::fresh_dir("photometria_vfjob_");
+  ViewFactorJob job;
+  job.scene = std::string(PHOTOMETRIA_SOURCE_DIR) + "/tests/data/view3d_box_emit.vs3";
+  job.output = (dir / "sf.csv").string();
+  job.enforcement = Enforcement::Both;
+  const ViewFactorJobResult r = run_view_factor_job(job);
+  EXPECT_TRUE(r.exchange_factors);
+  EXPECT_TRUE(r.job.fill.exchange_factors);
+  EXPECT_EQ(r.emissivities, (std::vector<double>{0.9, 0.3, 0.5, 0.7, 0.1, 0.6}));
+  ASSERT_EQ(r.F.rows(), 6);
+  for (int i = 0; i < 6; ++i) EXPECT_NEAR(r.F.row(i).sum(), r.emissivities[size_t(i)], 1e-14) << i;
+  EXPECT_NEAR(r.geometric_checks.min_row_sum, 1.0, 1e-14);
+  EXPECT_NEAR(r.geometric_checks.max_row_sum, 1.0, 1e-14);
+  EXPECT_NEAR(r.checks.min_row_sum, 0.1, 1e-14);
+  EXPECT_LE(r.checks.reciprocity_error, 1e-15);
+  EXPECT_GT(r.F(0, 0), 0.2);  // the floor absorbs back 0.2337 of its own emission (View3D: 0.233726)
+  EXPECT_EQ(r.memory.output_bytes, 8.0 * 36 * (1 + 4 + 3));
+  const nlohmann::json j = viewfactor_summary_json(r);
+  EXPECT_EQ(j["factors"], "script-F");
+  EXPECT_EQ(j["exchange"]["source"], "C emit=1");
+  EXPECT_EQ(j["exchange"]["geometric_checks"]["row_sum_max"].get<double>(), r.geometric_checks.max_row_sum);
+  const std::string text = viewfactor_summary_text(r);
+  EXPECT_NE(text.find("\n  script-F (C emit=1): Hottel's total exchange factors"), std::string::npos) << text;
+
+  // The same file without emit: the geometric factors (the job is otherwise the same).
+  const fs::path plain = dir / "box.vs3";
+  {
+    std::ifstream in(job.scene);
+    std::ofstream out(plain);
+    for (std::string line; std::getline(in, line);) out << (line.rfind("C ", 0) == 0 ? "C encl=1" : line) << "\n";
+  }
+  job.scene = plain.string();
+  const ViewFactorJobResult g = run_view_factor_job(job);
+  EXPECT_FALSE(g.exchange_factors);
+  EXPECT_NEAR(g.F.row(0).sum(), 1.0, 1e-14);
+  EXPECT_EQ(g.F(0, 0), 0.0);
+  EXPECT_EQ(g.checks.min_row_sum, r.geometric_checks.min_row_sum);
 }

@@ -188,8 +188,8 @@ SparseWriteStats write_view_factors(AtomicOutput& atomic, ViewFactorFormat forma
       case ViewFactorFormat::View3d: {
         // View3D's SaveVF, output format 0 (docs/viewfactors.md "The view3d form"): its values
         // are single precision (R4) printed with C's %g / %.6f / %.3f, blank-separated.
-        std::string header = view3d.program + " " + view3d.version + " 0 " + std::to_string(view3d.enclosure) + " 0 " +
-                             std::to_string(n);
+        std::string header = view3d.program + " " + view3d.version + " 0 " + std::to_string(view3d.enclosure) + " " +
+                             std::to_string(view3d.emittances) + " " + std::to_string(n);
         if (header.size() < 30) header.resize(30, ' ');
         out << header << "\n";
         // The value as View3D holds it (single precision; -0 printed as 0), then as its printf would.

@@ -21,7 +21,7 @@
 //           row-major. Total 16 + Σ(4 + len) + 8 n + 8 n² bytes.
 //   view3d  View3D's text view-factor file (its SaveVF with output format 0, View3D 3.2 – 3.5;
 //           docs/viewfactors.md has the layout and its sources): a header line
-//           "<program> <version> 0 <encl> 0 <n>" padded with blanks to 30 characters, the n
+//           "<program> <version> 0 <encl> <emit> <n>" padded with blanks to 30 characters, the n
 //           areas ("%g" of the single-precision value, one blank between), n rows of F
 //           ("%.6f" of single precision, one blank between), the n emissivities ("%.3f").
 //           No names, no title: View3D's readers take numbers only.
@@ -52,6 +52,8 @@ struct View3dOutput {
   std::string program = "Photometria";  // header fields 1 and 2 (View3D writes "View3D 3.2")
   std::string version = "0.1.0";        // as `photometria --version`; View3D's readers take <= 7 chars
   int enclosure = 0;                    // header field 4 (View3D's encl: rows normalised to sum 1)
+  int emittances = 0;                   // header field 5 (View3D's didemit: 1 when F holds Hottel's
+                                        // exchange factors, script-F, of its C emit=1)
   std::vector<double> emissivities;     // last line, per surface; not n long: 1.0 for every surface
 };
 

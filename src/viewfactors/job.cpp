@@ -16,17 +16,23 @@
 namespace photometria {
 namespace {
 
-// Per output surface, the emissivity of its View3D surface when the input is a .vs3 file (the
-// last line of View3D's output); empty otherwise (the writer then puts 1.000).
-std::vector<double> view3d_emissivities_of(const std::string& path, const Scene& scene, const PatchMesh& mesh,
-                                           const Aggregation& agg) {
+bool is_vs3(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  if (ext != ".vs3") return {};
+  return ext == ".vs3";
+}
+
+// Per output surface, the emissivity of its View3D surface when the input is a .vs3 file (the
+// last line of View3D's output, and those of the exchange factors); empty otherwise (the writer
+// then puts 1.000).
+std::vector<double> view3d_emissivities_of(const std::string& path, const Scene& scene, const PatchMesh& mesh,
+                                           const Aggregation& agg) {
+  if (!is_vs3(path)) return {};
   const std::vector<double> by_surface = view3d_emissivities(path);
   // A combined output surface keeps the emissivity of its lowest-numbered member (the surface
-  // the others are combined into), as View3D does.
+  // the others are combined into), as View3D intends (it does not renumber its emissivities
+  // when it combines, so a kept surface after a combined one gets another's there).
   std::vector<double> out(static_cast<size_t>(agg.size()), 1.0);
   std::vector<int> first(static_cast<size_t>(agg.size()), -1);
   for (int i = 0; i < mesh.size(); ++i) {
@@ -40,6 +46,14 @@ std::vector<double> view3d_emissivities_of(const std::string& path, const Scene&
     out[static_cast<size_t>(I)] = by_surface[static_cast<size_t>(source)];
   }
   return out;
+}
+
+// Whether the scene is a View3D input (`path`) whose C line sets emit to a non-zero value.
+bool view3d_asks_for_exchange_factors(const std::string& path, const Scene& scene) {
+  if (!is_vs3(path) || !scene.settings.contains("view3d")) return false;
+  const nlohmann::json& control = scene.settings["view3d"];
+  const auto it = control.is_object() ? control.find("emit") : control.end();
+  return it != control.end() && it->is_number() && it->get<double>() != 0.0;
 }
 
 // A number as the C line would give it ("1e-05", "2").
@@ -82,8 +96,8 @@ std::vector<std::string> view3d_control_notes(const nlohmann::json& control, con
                                        "enclosure adjustment)"));
     } else if (name == "emit") {
       notes.push_back(k + (v == 0.0 ? "geometric view factors, as here"
-                                    : "ignored: geometric view factors are written, not View3D's factors with "
-                                      "emissivities"));
+                                    : "honoured: Hottel's total exchange factors (script-F) with the surfaces' "
+                                      "emissivities are written"));
     } else if (name == "out") {
       notes.push_back(k + "ignored: the output form is --format " + view_factor_format_name(job.format));
     } else if (name == "list") {
@@ -128,16 +142,40 @@ ViewFactorJobResult run_view_factor_job(const ViewFactorJob& job) {
   if (!job.points.empty()) points = load_points(job.points);
   opt.points = static_cast<int>(points.size());
 
+  // A .vs3 input's `C emit=1`: Hottel's exchange factors instead of the geometric ones.
+  res.exchange_factors = view3d_asks_for_exchange_factors(job.scene, scene);
+  opt.exchange_factors = res.exchange_factors;
+  const auto all_zero = [](const std::vector<double>& e) {
+    return std::all_of(e.begin(), e.end(), [](double x) { return x == 0.0; });
+  };
+  const std::string no_emissivity =
+      ": C emit=1 asks for exchange factors, but every surface's emissivity (the emit field of its S line) is 0";
+  if (res.exchange_factors && all_zero(view3d_emissivities(job.scene)))  // before the fill
+    throw_bad_input(job.scene + no_emissivity);
+
   const PatchViewFactors r = compute_view_factors(scene, opt);
   if (scene.settings.contains("view3d")) res.view3d_control = view3d_control_notes(scene.settings["view3d"], res.job);
   const Aggregation agg = make_aggregation(scene, r.mesh, job.level);
   res.F = aggregate(r.F, r.mesh, agg);
+  // As View3D (its main program): the enclosure adjustment of the geometric factors first, then
+  // the emissivities (IntFac).
   if (job.enforcement != Enforcement::None) res.enforcement_report = enforce(res.F, agg.areas, job.enforcement);
   res.checks = check_matrix(res.F, agg.areas);
+  if (job.format == ViewFactorFormat::View3d || res.exchange_factors)
+    res.emissivities = view3d_emissivities_of(job.scene, scene, r.mesh, agg);
+  if (res.exchange_factors) {
+    if (all_zero(res.emissivities)) throw_bad_input(job.scene + no_emissivity);  // of the output surfaces
+    res.geometric_checks = res.checks;
+    try {
+      res.F = exchange_factors(res.F, res.emissivities);
+    } catch (const Error& e) { throw Error(e.kind(), job.scene + ": C emit=1: " + e.what()); }
+    res.checks = check_matrix(res.F, agg.areas);
+  }
   View3dOutput v3;
   if (job.format == ViewFactorFormat::View3d) {
     v3.enclosure = job.enforcement == Enforcement::Closure || job.enforcement == Enforcement::Both ? 1 : 0;
-    v3.emissivities = view3d_emissivities_of(job.scene, scene, r.mesh, agg);
+    v3.emittances = res.exchange_factors ? 1 : 0;
+    v3.emissivities = res.emissivities;
   }
   std::function<void(double)> writing;
   if (opt.progress) writing = [&opt](double f) { opt.progress("writing", f); };

@@ -8,7 +8,9 @@
 //   2. loads the scene (warnings go to ViewFactorJob::on_load_warning) and the points file, so
 //      that a bad points file fails before the fill;
 //   3. compute_view_factors(), make_aggregation(), aggregate(), enforce() when asked,
-//      check_matrix() (viewfactors/viewfactors.h);
+//      check_matrix() (viewfactors/viewfactors.h); for a .vs3 input whose C line has emit=1,
+//      then exchange_factors() with the surfaces' emissivities (Hottel's script-F, after the
+//      enforcement as View3D normalises its enclosure before IntFac) and check_matrix() again;
 //   4. writes the matrix (io/viewfactor_output.h) and, with points, the point factors;
 //   5. commits the outputs all or nothing: the matrix first, then the point factors; when the
 //      point factors fail to commit, the committed matrix is removed again.
@@ -60,9 +62,16 @@ struct ViewFactorJobResult {
   std::vector<double> areas;       // their areas, m²
   int surfaces() const { return static_cast<int>(names.size()); }
 
-  // The written matrix (G × G, row I = from surface I, after enforcement) and its checks.
+  // The written matrix (G × G, row I = from surface I, after enforcement; Hottel's exchange
+  // factors when exchange_factors) and its checks.
   ViewFactorMatrix F;
   MatrixChecks checks;
+  // A .vs3 input with `C emit=1`: F holds the exchange factors (script-F) of the geometric
+  // factors (whose checks are geometric_checks) and `emissivities`.
+  bool exchange_factors = false;
+  MatrixChecks geometric_checks;         // the geometric factors' checks; all zero unless exchange_factors
+  std::vector<double> emissivities;      // per output surface, from the .vs3 (with exchange factors or
+                                         // --format view3d); empty otherwise
   EnforcementReport enforcement_report;  // all zero when enforcement is None
   SparseWriteStats sparse;               // drop statistics; all zero unless format is Sparse
   // A .vs3 input's C line: per key given, what became of it ("eps=1e-05: superseded by
@@ -82,7 +91,9 @@ struct ViewFactorJobResult {
 
 // Throws photometria::Error: Io when an output cannot be written or an input cannot be opened;
 // BadInput when points_output is the output file, the scene or the points file is malformed,
-// the scene has no patch or the memory estimate exceeds the limit (compute_view_factors).
+// the scene has no patch or the memory estimate exceeds the limit (compute_view_factors), or
+// with `C emit=1` when every emissivity is 0 or the exchange-factor system is singular (one line
+// naming the scene file).
 // Whatever is thrown, no output file is left (and no temporary file).
 // What this job does with each key of a View3D C line (Scene::settings["view3d"], keys in lower
 // case as the loader keeps them): honoured, superseded by an option, or ignored, and why.

@@ -36,7 +36,15 @@ nlohmann::json viewfactor_summary_json(const ViewFactorJobResult& r) {
   j["occluded_accuracy"] = job.fill.occluded_accuracy;
   j["visibility"] = r.visibility_mode;
   j["visibility_reason"] = r.visibility_reason;
+  j["factors"] = r.exchange_factors ? "script-F" : "geometric";
   j["checks"] = checks_json(r.checks, r.names);
+  if (r.exchange_factors)
+    j["exchange"] = {{"definition",
+                      "Hottel's total exchange factors (Hottel & Sarofim 1967): sF = diag(eps) X, "
+                      "(I - F diag(1 - eps)) X = F diag(eps)"},
+                     {"source", "C emit=1"},
+                     {"emissivities", r.emissivities},
+                     {"geometric_checks", checks_json(r.geometric_checks, r.names)}};
   const ViewFactorMemory& m = r.memory;
   j["matrix"] = {{"storage", r.matrix_storage}, {"reason", m.storage_reason}, {"bytes", r.matrix_bytes}};
   j["memory_estimate"] = {{"estimated_bytes", m.estimated_bytes},
@@ -96,8 +104,14 @@ std::string viewfactor_summary_text(const ViewFactorJobResult& r) {
   std::ostringstream o;
   o << "view factors: " << r.surfaces() << " " << aggregate_level_name(job.level) << "s from " << r.patches
     << " patches -> " << job.output << " (" << view_factor_format_name(job.format) << ")\n"
-    << "  visibility: " << r.visibility_mode << " (" << r.visibility_reason << ")\n"
-    << "  row sums: min " << checks.min_row_sum << ", max " << checks.max_row_sum << ", mean " << checks.mean_row_sum
+    << "  visibility: " << r.visibility_mode << " (" << r.visibility_reason << ")\n";
+  if (r.exchange_factors) {
+    const MatrixChecks& g = r.geometric_checks;
+    o << "  script-F (C emit=1): Hottel's total exchange factors with the surfaces' emissivities (a closed "
+         "enclosure's row sums are the emissivities); geometric factors: row sums ["
+      << g.min_row_sum << ", " << g.max_row_sum << "], reciprocity error max " << g.reciprocity_error << "\n";
+  }
+  o << "  row sums: min " << checks.min_row_sum << ", max " << checks.max_row_sum << ", mean " << checks.mean_row_sum
     << "; worst row " << checks.worst_row << " (" << r.names[static_cast<size_t>(checks.worst_row)] << ")\n"
     << "  reciprocity error max: " << checks.reciprocity_error << "\n"
     << "  matrix: " << r.matrix_storage << ", " << format_bytes(r.matrix_bytes) << " (" << m.storage_reason << ")\n"

@@ -11,18 +11,20 @@
 namespace photometria {
 
 // One object: "scene", "output", "format", "level", "surfaces", "patches", "faces", "accuracy",
-// "visibility", "visibility_reason", "checks" (row sums, worst row and its name, reciprocity
+// "visibility", "visibility_reason", "factors" ("geometric", or "script-F" for a .vs3 input with
+// C emit=1), "checks" (of the written matrix: row sums, worst row and its name, reciprocity
 // error, entry range), "matrix" (patch storage, why, bytes), "memory_estimate" (bytes of each part,
 // the limit and where it came from), "pairs" (the FillStats counts), "enforce" (the mode's name),
 // "seconds" (s), "peak_memory_bytes"; and, only when they apply, "enforcement" (checks before and
-// after, iterations, max change), "sparse" (threshold and drop statistics), "points" (count and
+// after, iterations, max change), "exchange" (with script-F: definition, emissivities, the
+// geometric factors' checks), "sparse" (threshold and drop statistics), "points" (count and
 // output path).
 nlohmann::json viewfactor_summary_json(const ViewFactorJobResult& result);
 
 // The human summary: "view factors: G <level>s from N patches -> OUTPUT (format)", then indented
-// lines for visibility, row sums, reciprocity, patch matrix, memory estimate, pairs, enforcement,
-// sparse drops and point factors (the last three only when they apply), and "  time ... s, peak
-// memory ... MiB". Every line ends with '\n'; numbers in the stream's default format (6
+// lines for visibility, script-F (only with C emit=1: the geometric factors' checks), row sums, reciprocity, patch
+// matrix, memory estimate, pairs, enforcement, sparse drops and point factors (the last three only when they apply),
+// and "  time ... s, peak memory ... MiB". Every line ends with '\n'; numbers in the stream's default format (6
 // significant digits).
 std::string viewfactor_summary_text(const ViewFactorJobResult& result);
 

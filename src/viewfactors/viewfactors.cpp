@@ -3,6 +3,8 @@
 
 #include <omp.h>
 
+#include <Eigen/LU>
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -29,7 +31,8 @@ namespace {
 StorageChoice check_memory(const MemoryEstimate& estimate, double patches, double surfaces,
                            const ViewFactorOptions& opt, ViewFactorMemory& m) {
   const double g = surfaces;
-  const double output_bytes = 8.0 * g * g * (opt.enforcement ? 5.0 : 1.0) + 8.0 * double(std::max(opt.points, 0)) * g;
+  const double output_bytes = 8.0 * g * g * (1.0 + (opt.enforcement ? 4.0 : 0.0) + (opt.exchange_factors ? 3.0 : 0.0)) +
+                              8.0 * double(std::max(opt.points, 0)) * g;
   const StorageChoice c =
       check_storage(estimate, patches, output_bytes, opt.matrix_layout, opt.matrix_precision, opt.max_memory_bytes,
                     "view factors need an estimated", ", " + format_patch_count(g) + " output surfaces",
@@ -296,6 +299,40 @@ EnforcementReport enforce(ViewFactorMatrix& F, const std::vector<double>& areas,
   rep.max_change = n ? (F - original).cwiseAbs().maxCoeff() : 0.0;
   rep.after = check_matrix(F, areas);
   return rep;
+}
+
+ViewFactorMatrix exchange_factors(const ViewFactorMatrix& F, const std::vector<double>& emissivities) {
+  const int n = static_cast<int>(F.rows());
+  if (F.cols() != n || emissivities.size() != static_cast<size_t>(n))
+    throw_bad_input("exchange factors: " + std::to_string(emissivities.size()) + " emissivities for " +
+                    std::to_string(F.rows()) + " x " + std::to_string(F.cols()) + " view factors");
+  Eigen::VectorXd eps(n);
+  for (int i = 0; i < n; ++i) {
+    const double e = emissivities[size_t(i)];
+    if (!(e >= 0.0 && e <= 1.0)) {
+      std::ostringstream m;
+      m << "exchange factors: emissivity " << e << " of surface " << i + 1 << " is outside [0, 1]";
+      throw_bad_input(m.str());
+    }
+    eps[i] = e;
+  }
+  if (n == 0) return F;
+  const Eigen::VectorXd rho = Eigen::VectorXd::Ones(n) - eps;
+  // (I − F diag(ρ)) X = F diag(ε): radiation leaving i reaches k with F_ik and is absorbed
+  // there (ε_k) or reflected on (ρ_k), so X_ij = F_ij ε_j + Σ_k F_ik ρ_k X_kj.
+  const Eigen::MatrixXd M = Eigen::MatrixXd::Identity(n, n) - F * rho.asDiagonal();
+  const Eigen::PartialPivLU<Eigen::MatrixXd> lu(M);
+  const double rcond = lu.rcond();
+  if (!(rcond >= 1e-12)) {
+    std::ostringstream m;
+    m << "exchange factors: the system is singular (reciprocal condition number " << rcond
+      << "): surfaces of emissivity 0 close an enclosure, so nothing ever absorbs what they reflect";
+    throw_bad_input(m.str());
+  }
+  const Eigen::MatrixXd X = lu.solve(Eigen::MatrixXd(F * eps.asDiagonal()));
+  ViewFactorMatrix out = eps.asDiagonal() * X;
+  if (!out.allFinite()) throw_bad_input("exchange factors: the solve gave a non-finite factor");
+  return out;
 }
 
 namespace {

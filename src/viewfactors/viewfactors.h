@@ -63,6 +63,7 @@ struct ViewFactorOptions {
   // matrices at the peak) and how many point rows (P × G) it computes.
   AggregateLevel level = AggregateLevel::Patch;
   bool enforcement = false;
+  bool exchange_factors = false;  // exchange_factors() (three more G × G matrices at its peak)
   int points = 0;
 };
 
@@ -70,7 +71,8 @@ struct ViewFactorOptions {
 //   estimated_bytes = matrix_bytes + per-patch arrays (MemoryEstimate::per_patch_bytes × N)
 //                     + output_bytes
 //   matrix_bytes    = the N × N patch matrix in `storage` (storage.h matrix_bytes())
-//   output_bytes    = 8 G² (aggregated matrix) × (1 + 4 with enforcement) + 8 P G (points)
+//   output_bytes    = 8 G² (aggregated matrix) × (1 + 4 with enforcement + 3 with exchange
+//                     factors) + 8 P G (points)
 struct ViewFactorMemory {
   MemoryEstimate patches;      // pipeline/memory.h: facing pairs, per-patch bytes
   int surfaces = 0;            // G, rows of the output
@@ -144,6 +146,25 @@ struct EnforcementReport {
 // `tolerance`: closure iterations stop when every |row sum − 1| <= tolerance.
 EnforcementReport enforce(ViewFactorMatrix& F, const std::vector<double>& areas, Enforcement mode,
                           double tolerance = 1e-14, int max_iterations = 1000);
+
+// Hottel's total exchange factors ("script-F"; H. C. Hottel & A. F. Sarofim, "Radiative
+// Transfer", McGraw-Hill, 1967, pp. 84-86; the net radiation method in matrix form: M. F. Modest,
+// "Radiative Heat Transfer", 3rd ed., 2013, ch. 5) of gray, diffuse, opaque surfaces with
+// emissivities ε_i (reflectance ρ_i = 1 − ε_i) from their view factors F (row i = from i):
+//   sF_ij = fraction of the blackbody emission of surface i absorbed by surface j, directly and
+//           after any number of diffuse reflections;
+//   sF = diag(ε) X  with  (I − F diag(ρ)) X = F diag(ε),
+// X_ij being the probability that radiation leaving i is eventually absorbed by j. The diagonal
+// sF_ii (i's own emission it absorbs back) is in general not 0. For an enclosure (rows of F
+// summing to 1) the rows of sF sum to ε_i; with reciprocal F, A_i sF_ij = A_j sF_ji. ε_i = 1
+// everywhere gives sF = F; a surface with ε_i = 0 (a perfect reflector) has a zero row and column.
+// This is View3D's `C emit=1` (its IntFac(), which solves the same system with the areas folded
+// in; View3D clamps emissivities to [0.001, 0.999] when it reads them, this does not).
+// X is solved by dense LU with partial pivoting (Eigen::PartialPivLU) of the G × G matrix.
+// Throws photometria::Error(BadInput) when the sizes differ, an emissivity is outside [0, 1], or
+// the system is singular (reciprocal condition number estimate below 1e-12: perfect reflectors
+// closing an enclosure, where no radiation is ever absorbed) or gives a non-finite factor.
+ViewFactorMatrix exchange_factors(const ViewFactorMatrix& F, const std::vector<double>& emissivities);
 
 // A point with its unit normal (front side receives).
 struct SurfacePoint {
