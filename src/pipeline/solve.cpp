@@ -46,6 +46,21 @@ class StageTimer {
   std::chrono::steady_clock::time_point start_;
 };
 
+// The patch count, area range and total, and pair count of r.mesh into the summary.
+void record_patches(SolveResult& r) {
+  SolveSummary& s = r.summary;
+  s.patches = r.mesh.size();
+  s.min_patch_area = r.mesh.size() ? r.mesh.patches[0].area : 0.0;
+  s.max_patch_area = 0.0;
+  s.total_area = 0.0;
+  for (const Patch& p : r.mesh.patches) {
+    s.min_patch_area = std::min(s.min_patch_area, p.area);
+    s.max_patch_area = std::max(s.max_patch_area, p.area);
+    s.total_area += p.area;
+  }
+  s.pairs_total = (long long)s.patches * (s.patches - 1);
+}
+
 void fill_materials(const Scene& scene, SolveResult& r) {
   const int n = r.mesh.size();
   r.emission.resize(n, 3);
@@ -425,14 +440,7 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
   // the dense method's patches are the patching's.
   r.mesh = subdivide(scene, hierarchical ? PatchingOptions{} : opt.patching);
   s.faces = static_cast<int>(scene.faces.size());
-  s.patches = r.mesh.size();
-  s.min_patch_area = r.mesh.size() ? r.mesh.patches[0].area : 0.0;
-  for (const Patch& p : r.mesh.patches) {
-    s.min_patch_area = std::min(s.min_patch_area, p.area);
-    s.max_patch_area = std::max(s.max_patch_area, p.area);
-    s.total_area += p.area;
-  }
-  s.pairs_total = (long long)s.patches * (s.patches - 1);
+  record_patches(r);
   fill_materials(scene, r);
   timer.lap("patching");
 
@@ -485,14 +493,7 @@ std::unique_ptr<HierarchicalRadiosity> solve_by_hierarchy(const Scene& scene, co
   HierarchicalSolution sol = hierarchy->solve();
   s.hierarchical = sol.stats;
   r.mesh = std::move(sol.leaves);
-  s.patches = r.mesh.size();
-  s.min_patch_area = r.mesh.size() ? r.mesh.patches[0].area : 0.0;
-  s.max_patch_area = 0.0;
-  for (const Patch& p : r.mesh.patches) {
-    s.min_patch_area = std::min(s.min_patch_area, p.area);
-    s.max_patch_area = std::max(s.max_patch_area, p.area);
-  }
-  s.pairs_total = (long long)s.patches * (s.patches - 1);
+  record_patches(r);
   fill_materials(scene, r);
   r.radiosity = sol.radiosity;
   r.irradiance = sol.irradiance;
