@@ -99,8 +99,8 @@ Command add_viewfactors_command(CLI::App& app) {
   sub->add_option("--accuracy", a->accuracy, "Per-pair relative tolerance for unblocked pairs (default 1e-7)")
       ->check(options::real_in(0, 1, true, true));
   sub->add_option("--occluded-accuracy", a->occluded_accuracy,
-                  "Relative tolerance for pairs with occluders in their shaft, integrated adaptively with exact "
-                  "visibility (default 0: the fixed --quadrature rule)")
+                  "Absolute tolerance on each row's sum over the pairs with occluders in their shaft, "
+                  "integrated adaptively with exact visibility (default 0: the fixed --quadrature rule)")
       ->check(options::real_in(0, 1, false, true));
   sub->add_option("--visibility", a->visibility, "auto (default), none, rays or exact");
   sub->add_option("--rays", a->rays,

@@ -8,7 +8,7 @@
 
 #include "formfactors/aligned_rectangles.h"
 #include "formfactors/facing.h"
-#include "formfactors/occluded_pair.h"
+#include "formfactors/occluded_row.h"
 #include "formfactors/pair_integration.h"
 #include "formfactors/quadrature.h"
 #include "kernels/lambert.h"
@@ -35,10 +35,6 @@ PolygonBatch patch_batch(const PatchMesh& mesh) {
 }
 
 namespace {
-
-// Occluded pairs are integrated to occluded_tolerance × max(F_ij, kOccludedFloor) absolute: relative
-// for pairs that matter, and no effort spent resolving the last digits of negligible ones.
-constexpr double kOccludedFloor = 1e-4;
 
 // The fill's counts (FillStats): pairs by what became of them, rays and kernel evaluations. One
 // set per thread, added up after the rows (integers: the order of the sums does not matter).
@@ -92,7 +88,7 @@ class RowFill {
  public:
   // grouped, point_visibility: the thread's (null without visibility); row: n entries, zero.
   RowFill(const FillSetup& setup, int i, GroupedShaftCuller* grouped, PointVisibility* point_visibility,
-          OccludedPairIntegrator* occluded, double* row, FillCounts& counts)
+          OccludedRowIntegrator* occluded, double* row, FillCounts& counts)
       : s_(setup), i_(i), pi_(setup.mesh.patches[i]), grouped_(grouped), occluded_(occluded), row_(row), k_(counts) {
     s_.mesh.polygon(i, ri_);
     rule_ = patch_quadrature(ri_, pi_.corner_count, s_.options.quadrature);
@@ -116,6 +112,7 @@ class RowFill {
       if (j == i_) continue;
       pair(j);
     }
+    if (occluded_) occluded_row();
   }
 
   // A receiver point sees at most its hemisphere: Σ_j F_vis(x_q -> P_j) <= 1. Scale the
@@ -192,7 +189,7 @@ class RowFill {
         return;
       }
       if (occluded_) {
-        occluded_pair(j, analytic, area_factor);
+        defer_occluded_pair(j, analytic, area_factor);
         return;
       }
     }
@@ -217,21 +214,37 @@ class RowFill {
     for (int q = 0; q < nq_; ++q) point_sum_[q] += f;
   }
 
-  // Per-pair mode, exact visibility, occluders in the pair's shaft: the unoccluded factor less
-  // the blocked part, integrated adaptively to the requested accuracy (occluded_pair.h).
-  void occluded_pair(int j, bool analytic, double area_factor) {
-    const Patch& pj = s_.mesh.patches[j];
-    const double f0 = unoccluded_pair(j, analytic, area_factor);
-    const OccludedPair pair{ri_, pi_.corner_count, pi_.normal, pi_.area,      &receiver_part_,
-                            sj_, pj.corner_count,  pj.normal,  &source_part_, &occluders_};
-    const double tolerance = s_.options.occluded_tolerance * std::max(f0, kOccludedFloor);
-    const OccludedPairResult r = occluded_->integrate(pair, f0, tolerance, s_.options.occluded_budget);
-    ++k_.occluded_adaptive;
+  // Per-pair mode, exact visibility, occluders in the pair's shaft: the unoccluded factor now,
+  // less the blocked part once the row's occluded pairs are known (occluded_row).
+  void defer_occluded_pair(int j, bool analytic, double area_factor) {
+    row_[j] = unoccluded_pair(j, analytic, area_factor);
+    if (occluded_count_ == occluded_sources_.size()) occluded_sources_.emplace_back();
+    OccludedSource& source = occluded_sources_[occluded_count_++];
+    source.patch = j;
+    source.exchanging_part = source_part_;
+    source.occluders = occluders_;
+  }
+
+  // The blocked parts of the row's occluded pairs, integrated together to the requested accuracy
+  // on the row (occluded_row.h).
+  void occluded_row() {
+    if (occluded_count_ == 0) return;
+    occluded_sources_.resize(occluded_count_);
+    const OccludedRowResult r = occluded_->integrate(i_, occluded_sources_, s_.options.occluded_tolerance,
+                                                     s_.options.occluded_budget, blocked_);
+    for (size_t k = 0; k < occluded_count_; ++k) {
+      const int j = occluded_sources_[k].patch;
+      const double f0 = row_[j];
+      const double f = std::clamp(f0 - blocked_[k], 0.0, f0);
+      ++k_.evaluated;
+      ++k_.occluded_adaptive;
+      if (f == 0.0) ++k_.occluded;
+      row_[j] = f;
+      for (int q = 0; q < nq_; ++q) point_sum_[q] += f;
+    }
     k_.occluded_evaluations += r.evaluations;
     k_.occluded_budget += r.budget_exhausted;
-    if (r.form_factor == 0.0) ++k_.occluded;
-    row_error_ += r.error;
-    store_for_every_point(j, r.form_factor);
+    row_error_ = r.error;
   }
 
   // Per-pair mode, the factor with nothing in the way: the closed form of aligned rectangles,
@@ -406,9 +419,13 @@ class RowFill {
   Polygon receiver_part_, source_part_;  // narrow_to_exchanging_parts
   // Shaft culling in a hierarchy (face, tile, patch; visibility.h); one per thread, reused across rows.
   GroupedShaftCuller* grouped_;
-  OccludedPairIntegrator* occluded_;  // per-pair mode with exact visibility, else null
-  double row_error_ = 0.0;            // Σ_j of the occluded pairs' error estimates
-  double row_ray_variance_ = 0.0;     // see row_ray_error()
+  OccludedRowIntegrator* occluded_;  // per-pair mode with exact visibility, else null
+  // The row's occluded pairs (the first occluded_count_; entries are reused, keeping their buffers).
+  std::vector<OccludedSource> occluded_sources_;
+  size_t occluded_count_ = 0;
+  std::vector<double> blocked_;
+  double row_error_ = 0.0;         // estimated error of the occluded pairs' sum
+  double row_ray_variance_ = 0.0;  // see row_ray_error()
   PointVisibility* from_point_ = nullptr;
   double* row_;
   std::vector<Facing> facing_;
@@ -448,12 +465,12 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
 
   std::vector<GroupedShaftCuller> grouped_cullers;
   std::vector<PointVisibility> point_visibility;  // one-point rules: visibility from the point (see RowFill)
-  std::vector<OccludedPairIntegrator> occluded;   // per-pair mode, exact visibility: occluded pairs
+  std::vector<OccludedRowIntegrator> occluded;    // per-pair mode, exact visibility: occluded pairs
   if (vis) {
     grouped_cullers.assign(size_t(omp_get_max_threads()), GroupedShaftCuller(vis->culler(), mesh));
     for (int t = 0; t < omp_get_max_threads(); ++t) point_visibility.emplace_back(*vis, mesh);
     if (per_pair && !rays_mode && options.occluded_tolerance > 0.0)
-      for (int t = 0; t < omp_get_max_threads(); ++t) occluded.emplace_back(*vis);
+      for (int t = 0; t < omp_get_max_threads(); ++t) occluded.emplace_back(*vis, mesh);
   }
   double max_row_error = 0.0, max_ray_error = 0.0;
 

@@ -41,12 +41,13 @@ struct FillOptions {
                                  // `quadrature` rule for every pair
   bool exact_rectangles = true;  // with tolerance > 0: use the rectangle closed form
                                  // (false: the per-pair rule there too, for studies)
-  // > 0 with tolerance > 0 and exact visibility: pairs with occluders in their shaft are
-  // integrated adaptively (formfactors/occluded_pair.h) to this relative accuracy (absolute
-  // floor: × 1e-4), each spending at most occluded_budget receiver points; 0: the fixed
-  // `quadrature` rule with exact visibility per point.
+  // > 0 with tolerance > 0 and exact visibility: the pairs of a row with occluders in their shaft
+  // are integrated together, adaptively, so that the estimated error of their sum (what the row
+  // sum may be off, dimensionless) is at most this (formfactors/occluded_row.h), each row spending
+  // at most occluded_budget (receiver point, source) evaluations; 0: the fixed `quadrature` rule
+  // with exact visibility per point.
   double occluded_tolerance = 0.0;
-  long long occluded_budget = 20000;
+  long long occluded_budget = 20000000;
   const Visibility* visibility = nullptr;  // null: no occlusion test (every pair unoccluded)
   int rays = kAdaptiveRays;                // rays per (receiver point, source patch) in ray mode
                                            // (kAdaptiveRays: as the Visibility's RaySampling asks)
@@ -75,9 +76,9 @@ struct FillStats {
   long long pairs_exact_rectangles = 0;  // per-pair mode: aligned rectangles, closed form (exact)
   long long kernel_evaluations = 0;
   long long pairs_occluded_adaptive = 0;    // occluded pairs integrated to occluded_tolerance
-  long long occluded_evaluations = 0;       // their receiver points (exact visible factor each)
-  long long occluded_budget_exhausted = 0;  // of those, stopped by the budget above the tolerance
-  double max_row_error_estimate = 0.0;      // max over rows of Σ_j the occluded pairs' error estimates
+  long long occluded_evaluations = 0;       // their (receiver point, source) exact visible factors
+  long long occluded_budget_exhausted = 0;  // rows stopped by the budget above the tolerance
+  double max_row_error_estimate = 0.0;      // max over rows of the occluded pairs' estimated error
   double max_row_ray_error = 0.0;           // ray mode: max over rows of the estimated standard error of
                                             // the row sum from ray sampling (visibility.h RaySampling)
 };

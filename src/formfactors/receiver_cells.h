@@ -1,5 +1,5 @@
 // Receiver cells: a convex receiver region as triangles and quads, each a map from the unit
-// parameter square, for the integration rules of pair_integration.h and occluded_pair.h.
+// parameter square, for the integration rules of pair_integration.h and occluded_row.h.
 //
 //   ∫_cell f dA = ∫_0^1 ∫_0^1 f(x(s, t)) J(s, t) ds dt
 // with the bilinear map on quads and the collapsed (Duffy) map on triangles,

@@ -126,9 +126,9 @@ std::string viewfactor_summary_text(const ViewFactorJobResult& r) {
   if (fill.rays_cast > 0)
     o << "  rays: estimated error of a row sum from the rays, max " << fill.max_row_ray_error << "\n";
   if (fill.pairs_occluded_adaptive > 0)
-    o << "  occluded pairs: " << fill.pairs_occluded_adaptive << " adaptive to " << job.fill.occluded_accuracy << " ("
-      << fill.occluded_evaluations << " points, " << fill.occluded_budget_exhausted
-      << " stopped by the budget); estimated row error max " << fill.max_row_error_estimate << "\n";
+    o << "  occluded pairs: " << fill.pairs_occluded_adaptive << " adaptive, rows to " << job.fill.occluded_accuracy
+      << " (" << fill.occluded_evaluations << " point-source evaluations, " << fill.occluded_budget_exhausted
+      << " rows stopped by the budget); estimated row error max " << fill.max_row_error_estimate << "\n";
   const EnforcementReport& rep = r.enforcement_report;
   if (job.enforcement != Enforcement::None)
     o << "  enforcement " << enforcement_name(job.enforcement) << ": reciprocity error " << rep.before.reciprocity_error

@@ -39,8 +39,9 @@ struct ViewFactorOptions {
   PatchingOptions patching;  // default: no subdivision beyond the input faces
   double accuracy = 1e-7;    // per-pair relative tolerance for pairs nothing can block
   int quadrature = 6;        // receiver rule order for pairs needing visibility
-  // > 0, with exact visibility: pairs with occluders in their shaft are integrated adaptively
-  // to this relative tolerance instead (formfactors/occluded_pair.h); 0: the fixed rule above.
+  // > 0, with exact visibility: the pairs of a row with occluders in their shaft are integrated
+  // adaptively, together, to this absolute tolerance on their sum (what the row sum may be off;
+  // formfactors/occluded_row.h); 0: the fixed rule above.
   double occluded_accuracy = 0.0;
   VisibilityMode visibility = VisibilityMode::Auto;
   int rays = kAdaptiveRays;  // rays per (receiver point, patch) in ray mode; kAdaptiveRays: until
