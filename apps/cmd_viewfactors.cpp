@@ -15,6 +15,7 @@
 #include "util/progress.h"
 #include "viewfactors/job.h"
 #include "viewfactors/report.h"
+#include "viewfactors/viewfactors.h"
 
 namespace pm = photometria;
 
@@ -23,7 +24,7 @@ namespace {
 struct ViewFactorArgs {
   std::string scene, output, by = "group", format = "csv", enforce = "none", visibility = "auto", points, points_output,
                              max_memory, matrix = "auto", matrix_precision = "auto";
-  double threshold = 0.0, max_edge = 0.0, accuracy = 1e-7, occluded_accuracy = 0.0;
+  double threshold = 0.0, max_edge = 0.0, accuracy = 1e-7, occluded_accuracy = photometria::kDefaultOccludedAccuracy;
   std::string rays = "auto";
   int threads = 0;
   bool json = false, flip_normals = false, quiet = false;
@@ -100,7 +101,7 @@ Command add_viewfactors_command(CLI::App& app) {
       ->check(options::real_in(0, 1, true, true));
   sub->add_option("--occluded-accuracy", a->occluded_accuracy,
                   "Absolute tolerance on each row's sum over the pairs with occluders in their shaft, "
-                  "integrated adaptively with exact visibility (default 0: the fixed --quadrature rule)")
+                  "integrated adaptively with exact visibility (default 1e-3; 0: the fixed --quadrature rule)")
       ->check(options::real_in(0, 1, false, true));
   sub->add_option("--visibility", a->visibility, "auto (default), none, rays or exact");
   sub->add_option("--rays", a->rays,

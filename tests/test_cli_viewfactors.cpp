@@ -365,12 +365,14 @@ TEST(CliViewFactors, ThreadCountDoesNotChangeTheMatrix) {
   EXPECT_EQ(run("viewfactors " + cube + " --threads x -o " + one.string()).exit_code, 1);
 }
 
-// --occluded-accuracy integrates the pairs with something in their shaft adaptively: the summary
-// counts them, their receiver points and their error estimate; 0 is off, 1 is refused.
+// --occluded-accuracy integrates the pairs with something in their shaft adaptively (1e-3 by
+// default): the summary counts them, their evaluations and their error estimate; 0 is the fixed
+// rule, 1 is refused.
 TEST(CliViewFactors, OccludedAccuracyIntegratesOccludedPairsAdaptively) {
   const std::string room = std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/room_with_table.obj";
   const fs::path fixed = scratch() / "fixed.csv", adaptive = scratch() / "adaptive.csv";
-  CliRun r = run("viewfactors " + room + " --by face --visibility exact -o " + fixed.string() + " --json");
+  CliRun r = run("viewfactors " + room + " --by face --visibility exact --occluded-accuracy 0 -o " + fixed.string() +
+                 " --json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json f = nlohmann::json::parse(r.out);
   EXPECT_GT(f["pairs"]["fixed_rule"].get<long long>(), 0);
@@ -383,7 +385,13 @@ TEST(CliViewFactors, OccludedAccuracyIntegratesOccludedPairsAdaptively) {
   EXPECT_EQ(a["pairs"]["fixed_rule"].get<long long>(), 0);
   EXPECT_EQ(a["pairs"]["occluded_adaptive"].get<long long>(), f["pairs"]["fixed_rule"].get<long long>());
   EXPECT_GT(a["pairs"]["occluded_evaluations"].get<long long>(), 0);
-  EXPECT_TRUE(a["pairs"]["row_error_estimate_max"].is_number());
+  EXPECT_LE(a["pairs"]["row_error_estimate_max"].get<double>(), 1e-5);
+  r = run("viewfactors " + room + " --by face --visibility exact -o " + adaptive.string() + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json d = nlohmann::json::parse(r.out);
+  EXPECT_EQ(d["occluded_accuracy"].get<double>(), 1e-3);
+  EXPECT_EQ(d["pairs"]["occluded_adaptive"].get<long long>(), f["pairs"]["fixed_rule"].get<long long>());
+  EXPECT_LE(d["pairs"]["row_error_estimate_max"].get<double>(), 1e-3);
   r = run("viewfactors " + room + " --occluded-accuracy 1 -o " + adaptive.string());
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("--occluded-accuracy"), std::string::npos) << r.err;
