@@ -129,7 +129,7 @@ int run_solve(const SolveArgs& a) {
     pm::throw_bad_input("--tolerance must be finite and > 0");
   const std::string method = setting(a.method, st, "method", std::string("dense"));
   if (!pm::solve_method_from_name(method, opt.method))
-    pm::throw_bad_input("--method: '" + method + "' is not dense or hierarchical");
+    pm::throw_bad_input("--method: '" + method + "' is not dense, hierarchical or auto");
   opt.hierarchical_error = setting(a.error, st, "error", 1e-2);
   opt.min_element_edge = setting(a.min_element, st, "min_element", 0.0);
   if (!(opt.hierarchical_error > 0 && opt.hierarchical_error < 1)) pm::throw_bad_input("--error must be in (0, 1)");
@@ -200,7 +200,8 @@ Command add_solve_command(CLI::App& app) {
   solve->add_option("--solver", s.solver, "auto | gauss-seidel | sor | cg | gmres | direct (default auto)");
   solve->add_option(
       "--method", s.method,
-      "dense | hierarchical (default dense; hierarchical: links refined to --error, memory following the links)");
+      "dense | hierarchical | auto (default dense; hierarchical: links refined to --error, memory following the "
+      "links; auto: dense when its memory estimate fits --max-memory, else hierarchical)");
   solve
       ->add_option("--error", s.error,
                    "Hierarchical method: relative radiosity error at which links stop refining (default 1e-2)")

@@ -350,10 +350,34 @@ TEST(Cli, HierarchicalMethodWritesTheLeavesAndReportsTheHierarchy) {
 
   const CliRun bad = run("solve " + mesh("cornell_box.obj") + " -o " + out + " --method sparse");
   EXPECT_EQ(bad.exit_code, 1);
-  EXPECT_NE(bad.err.find("--method: 'sparse' is not dense or hierarchical"), std::string::npos) << bad.err;
+  EXPECT_NE(bad.err.find("--method: 'sparse' is not dense, hierarchical or auto"), std::string::npos) << bad.err;
   const CliRun dense = run("solve " + mesh("cornell_box.obj") + " -o " + out + " --json");
   ASSERT_EQ(dense.exit_code, 0) << dense.err;
   EXPECT_EQ(nlohmann::json::parse(dense.out)["method"], "dense");
+  EXPECT_EQ(nlohmann::json::parse(dense.out)["method_reason"], "requested (--method dense)");
+}
+
+// `--method auto`: dense while its memory estimate fits the limit, else the hierarchy, and the
+// summary says which and why.
+TEST(Cli, AutoMethodIsDenseWhenItFitsAndHierarchicalWhenNot) {
+  const std::string out = (scratch() / "cornell_auto.vtu").string();
+  CliRun r = run("solve " + mesh("cornell_box.obj") + " -o " + out + " --method auto --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  auto s = nlohmann::json::parse(r.out);
+  EXPECT_EQ(s["method"], "dense");
+  std::string reason = s["method_reason"].get<std::string>();
+  EXPECT_EQ(reason.rfind("auto: the dense method needs ", 0), 0u) << reason;
+  EXPECT_NE(reason.find(", within "), std::string::npos) << reason;
+  // Patches of 2 cm: the dense matrix would need gigabytes, over a 256 MiB limit.
+  r = run("solve " + mesh("cornell_box.obj") + " -o " + out +
+          " --method auto --max-edge 0.02 --max-memory 256M --error 0.1 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  s = nlohmann::json::parse(r.out);
+  EXPECT_EQ(s["method"], "hierarchical");
+  reason = s["method_reason"].get<std::string>();
+  EXPECT_NE(reason.find(", over --max-memory is 256 MiB"), std::string::npos) << reason;
+  EXPECT_EQ(s["hierarchical"]["roots"].get<int>(), s["faces"].get<int>());
+  EXPECT_EQ(photometria::read_vtu(out).cells.size(), s["hierarchical"]["leaves"].get<size_t>());
 }
 
 // OBJ vn through the command line: the furnace cube whose corners each give all three faces one

@@ -58,6 +58,7 @@ nlohmann::json summary_json(const Scene& scene, const SolveSummary& s) {
   j["faces"] = s.faces;
   j["patches"] = s.patches;
   j["method"] = s.method;
+  j["method_reason"] = s.method_reason;
   if (s.method == "hierarchical") {
     const HierarchicalStats& h = s.hierarchical;
     j["hierarchical"] = {{"error", h.error},
@@ -149,7 +150,7 @@ std::string summary_table(const Scene& scene, const SolveSummary& s) {
                << scene.stats.dropped_degenerate << " degenerate, split " << scene.stats.split_nonplanar
                << " non-planar, dropped " << scene.stats.duplicate_faces << " duplicate, flipped "
                << scene.stats.flipped_faces << (scene.stats.flipped_all ? " + all (--flip-normals)" : "") << ")\n";
-  row("method") << s.method << "\n";
+  row("method") << s.method << " (" << s.method_reason << ")\n";
   if (s.method == "hierarchical") {
     const HierarchicalStats& h = s.hierarchical;
     row("hierarchy") << "error " << h.error << ", elements down to " << std::setprecision(4) << h.min_edge

@@ -402,12 +402,13 @@ void solve_dense(const Scene& scene, const Visibility* vis, const DirectLighting
 std::string solve_method_name(SolveMethod method) {
   switch (method) {
     case SolveMethod::Hierarchical: return "hierarchical";
+    case SolveMethod::Auto: return "auto";
     default: return "dense";
   }
 }
 
 bool solve_method_from_name(const std::string& name, SolveMethod& out) {
-  for (SolveMethod m : {SolveMethod::Dense, SolveMethod::Hierarchical})
+  for (SolveMethod m : {SolveMethod::Dense, SolveMethod::Hierarchical, SolveMethod::Auto})
     if (name == solve_method_name(m)) {
       out = m;
       return true;
@@ -430,10 +431,21 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
                     ": nothing to solve: no face emits light and there are no lights "
                     "(set Ke in the .mtl, --emission, or \"lights\" in a scene file)");
 
-  const bool hierarchical = opt.method == SolveMethod::Hierarchical;
+  bool hierarchical = opt.method == SolveMethod::Hierarchical;
+  s.method_reason = "requested (--method " + solve_method_name(opt.method) + ")";
   if (!hierarchical) {
     const PatchGrid grid = count_patches(scene, opt.patching);
-    check_memory(estimate_memory(scene, grid, opt.seed), grid.patches, opt, s);
+    const MemoryEstimate estimate = estimate_memory(scene, grid, opt.seed);
+    if (opt.method == SolveMethod::Auto) {
+      const StorageChoice c =
+          choose_storage(opt.matrix_layout, opt.matrix_precision, grid.patches, double(estimate.nonzero_pairs),
+                         estimate.per_patch_bytes * grid.patches, opt.max_memory_bytes);
+      hierarchical = !c.fits;
+      s.method_reason = "auto: the dense method needs " + format_bytes(c.estimated_bytes) + " for " +
+                        format_patch_count(grid.patches) + " patches (" + c.storage + " form factors), " +
+                        (c.fits ? "within " : "over ") + c.limit_description();
+    }
+    if (!hierarchical) check_memory(estimate, grid.patches, opt, s);
   }
   s.method = hierarchical ? "hierarchical" : "dense";
   // The hierarchy's roots are the scene's faces (its elements are split as the links need);

@@ -27,9 +27,11 @@ namespace photometria {
 
 // How the radiosity is solved: the dense N × N form-factor matrix (exact per pair, memory N²),
 // or hierarchical radiosity (hierarchical/hierarchical.h: links refined to an error ε, memory
-// following the links).
-enum class SolveMethod { Dense, Hierarchical };
-// "dense", "hierarchical" (the names of `solve --method`).
+// following the links), or Auto: dense when its memory estimate fits the limit (--max-memory or
+// MemAvailable), else hierarchical (on rooms of a few faces the dense method is the faster:
+// docs/performance.md "Hierarchical radiosity").
+enum class SolveMethod { Dense, Hierarchical, Auto };
+// "dense", "hierarchical", "auto" (the names of `solve --method`).
 std::string solve_method_name(SolveMethod method);
 // The method named `name` into `out`; false when unknown.
 bool solve_method_from_name(const std::string& name, SolveMethod& out);
@@ -84,7 +86,8 @@ struct EnergyBalance {
 };
 
 struct SolveSummary {
-  std::string method;              // "dense" or "hierarchical" (SolveOptions::method)
+  std::string method;              // "dense" or "hierarchical" (SolveOptions::method, Auto resolved)
+  std::string method_reason;       // "requested (--method dense)" or "auto: <why>"
   HierarchicalStats hierarchical;  // the hierarchical method's statistics (method "hierarchical")
   int faces = 0;
   int patches = 0;
