@@ -233,6 +233,38 @@ TEST(OccludedPairs, AReceiverUnderASolidSeesNothingFromItsFootprint) {
   EXPECT_GT(stats.pairs_occluded_adaptive, 0);
 }
 
+TEST(OccludedPairs, AReceiverWhollyUnderASolidIsSettledWithoutAPoint) {
+  // A box stands exactly on one floor patch: the patch sees nothing, so every source's blocked
+  // part is its whole unoccluded factor, found from the footprint without evaluating a point.
+  Scene scene = builders::unit_cube(0.5, 0.0);
+  builders::add_box(scene, {0.0, 0.0, 0.0}, {0.5, 0.5, 0.25});
+  PatchingOptions patching;
+  patching.max_edge = 0.5;
+  const PatchMesh mesh = subdivide(scene, patching);
+  const Visibility vis(scene, VisibilityMethod::Exact);
+  int receiver = -1;
+  for (int k = 0; k < mesh.size(); ++k) {
+    const Patch& q = mesh.patches[size_t(k)];
+    if (q.face == 0 && q.centroid.x() < 0.5 && q.centroid.y() < 0.5) receiver = k;
+  }
+  ASSERT_GE(receiver, 0);
+  std::vector<OccludedSource> sources;
+  std::vector<Pair> pairs;
+  for (int j = 0; j < mesh.size(); ++j) {
+    if (mesh.patches[size_t(j)].face == 0 || mesh.patches[size_t(j)].face >= 6) continue;  // the room's walls
+    const Pair p = pair_of(mesh, vis, receiver, j);
+    if (p.occluders.empty() || p.spart.size() < 3) continue;
+    sources.push_back({j, p.spart, p.occluders});
+    pairs.push_back(p);
+  }
+  ASSERT_GE(sources.size(), 4u);
+  OccludedRowIntegrator integrator(vis, mesh);
+  std::vector<double> blocked;
+  const OccludedRowResult r = integrator.integrate(receiver, sources, 1e-9, 50000000, blocked);
+  EXPECT_EQ(r.points, 0);
+  for (size_t k = 0; k < sources.size(); ++k) EXPECT_NEAR(blocked[k], unoccluded(pairs[k]), 1e-9);
+}
+
 TEST(OccludedPairs, SourcesOfARowGiveWhatEachGivesAlone) {
   // Sharing receiver points between the sources of a row changes no entry beyond the tolerance:
   // the row against each source alone, integrated far below it.
