@@ -218,21 +218,16 @@ class RowFill {
   // less the blocked part once the row's occluded pairs are known (occluded_row).
   void defer_occluded_pair(int j, bool analytic, double area_factor) {
     row_[j] = unoccluded_pair(j, analytic, area_factor);
-    if (occluded_count_ == occluded_sources_.size()) occluded_sources_.emplace_back();
-    OccludedSource& source = occluded_sources_[occluded_count_++];
-    source.patch = j;
-    source.exchanging_part = source_part_;
-    source.occluders = occluders_;
+    occluded_sources_.push_back({j, source_part_, occluders_});
   }
 
   // The blocked parts of the row's occluded pairs, integrated together to the requested accuracy
   // on the row (occluded_row.h).
   void occluded_row() {
-    if (occluded_count_ == 0) return;
-    occluded_sources_.resize(occluded_count_);
+    if (occluded_sources_.empty()) return;
     const OccludedRowResult r = occluded_->integrate(i_, occluded_sources_, s_.options.occluded_tolerance,
                                                      s_.options.occluded_budget, blocked_);
-    for (size_t k = 0; k < occluded_count_; ++k) {
+    for (size_t k = 0; k < occluded_sources_.size(); ++k) {
       const int j = occluded_sources_[k].patch;
       const double f0 = row_[j];
       const double f = std::clamp(f0 - blocked_[k], 0.0, f0);
@@ -419,10 +414,8 @@ class RowFill {
   Polygon receiver_part_, source_part_;  // narrow_to_exchanging_parts
   // Shaft culling in a hierarchy (face, tile, patch; visibility.h); one per thread, reused across rows.
   GroupedShaftCuller* grouped_;
-  OccludedRowIntegrator* occluded_;  // per-pair mode with exact visibility, else null
-  // The row's occluded pairs (the first occluded_count_; entries are reused, keeping their buffers).
-  std::vector<OccludedSource> occluded_sources_;
-  size_t occluded_count_ = 0;
+  OccludedRowIntegrator* occluded_;               // per-pair mode with exact visibility, else null
+  std::vector<OccludedSource> occluded_sources_;  // the row's occluded pairs (defer_occluded_pair)
   std::vector<double> blocked_;
   double row_error_ = 0.0;         // estimated error of the occluded pairs' sum
   double row_ray_variance_ = 0.0;  // see row_ray_error()
