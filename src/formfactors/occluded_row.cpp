@@ -56,8 +56,7 @@ void GenzMalikRule::means(const double* f, double& mean7, double& mean5) const {
   mean5 = kW5[0] * f[0] + kW5[1] * axis2 + kW5[2] * axis3 + kW5[3] * diag4;
 }
 
-OccludedRowIntegrator::OccludedRowIntegrator(const Visibility& vis, const PatchMesh& mesh)
-    : vis_(vis), mesh_(mesh), points_(vis, mesh) {
+OccludedRowIntegrator::OccludedRowIntegrator(const Visibility& vis, const PatchMesh& mesh) : vis_(vis), mesh_(mesh) {
   near_stamp_.assign(size_t(vis.culler().occluder_count()), -1);
   near_.assign(size_t(vis.culler().occluder_count()), 0);
 }
@@ -77,8 +76,44 @@ double OccludedRowIntegrator::occluder_distance(int o, const Vec3& centre) {
   return near_[size_t(o)];
 }
 
-bool OccludedRowIntegrator::evaluate(const std::vector<OccludedSource>& sources, const std::vector<int>& candidates,
-                                     Box& b) {
+double OccludedRowIntegrator::blocked_at(const Receiver& at, int k, OccluderSpan occluders, bool& lit) {
+  using namespace visibility_detail;
+  const ShaftCuller& culler = vis_.culler();
+  lit = true;
+  casting_.assign(occluder_pool_.begin() + occluders.first, occluder_pool_.begin() + occluders.first + occluders.count);
+  // Only the occluders of each convex solid that face x cast its shadow (ShaftCuller).
+  culler.drop_hidden_occluders(at.point, casting_);
+  if (casting_.empty()) return 0.0;
+  const std::vector<Vec3>& source = source_corners_[size_t(k)];
+  pieces_clip_.clear();
+  hidden_.clear();
+  Polygon& relative = pieces_clip_.push();
+  relative.resize(source.size());
+  double scale = 0.0;
+  for (size_t c = 0; c < source.size(); ++c) {
+    relative[c] = source[c] - at.point;
+    scale = std::max(scale, relative[c].norm());
+  }
+  if (!subtract_shadows(scale, culler.occluder_polygons(), casting_, &culler.occluder_normals(), pieces_clip_, &hidden_,
+                        &culler, volumes_))
+    return 0.0;
+  // Lit: some visible piece rises above x's horizon.
+  lit = false;
+  for (size_t q = 0; q < pieces_clip_.size() && !lit; ++q)
+    for (const Vec3& y : pieces_clip_[q]) lit = lit || at.normal.dot(y) > 0.0;
+  // Wholly hidden: h_j is the source's whole factor.
+  if (pieces_clip_.empty()) return lambert_form_factor(at, source.data(), int(source.size()));
+  // Lambert's formula is additive over a partition of the source (an integral over directions;
+  // Stark 2000 sec. 1.1, full reference in visibility.h): the hidden pieces' factors sum to h_j.
+  const Receiver at_origin{Vec3::Zero(), at.normal, at.approach};
+  double h = 0.0;
+  for (size_t q = 0; q < hidden_.size(); ++q)
+    h += lambert_form_factor(at_origin, hidden_[q].data(), static_cast<int>(hidden_[q].size()));
+  return std::max(0.0, h);
+}
+
+bool OccludedRowIntegrator::evaluate(const std::vector<std::pair<int, OccluderSpan>>& candidates, Box& b) {
+  const std::vector<OccludedSource>& sources = *sources_;
   static const GenzMalikRule rule;
   const ReceiverCell& cell = cells_[size_t(b.cell)];
   const double scale_s = (cell.c[1] - cell.c[0]).norm();
@@ -88,17 +123,25 @@ bool OccludedRowIntegrator::evaluate(const std::vector<OccludedSource>& sources,
   if (k < 3) return false;
   const ShaftCuller& culler = vis_.culler();
   b.active.clear();
+  b.occluders.clear();
   // Culling a box's shaft per source costs about what two of its 17 points do; past a few
-  // halvings it rarely frees a source its parent's shaft did not, so small boxes skip it.
+  // halvings it rarely frees a source its parent's shaft did not, so small boxes keep the parent's list.
   const bool cull = (b.s1 - b.s0) * (b.t1 - b.t0) >= kCullMeasure;
-  for (const int s : candidates) {
+  for (const auto& [s, span] : candidates) {
     const Polygon& part = sources[size_t(s)].exchanging_part;
     if (part.size() < 3) continue;
+    OccluderSpan kept = span;
     if (cull) {
-      culler.occluders_among(corners, k, part.data(), int(part.size()), sources[size_t(s)].occluders, shaft_);
+      parent_list_.assign(occluder_pool_.begin() + span.first, occluder_pool_.begin() + span.first + span.count);
+      culler.occluders_among(corners, k, part.data(), int(part.size()), parent_list_, shaft_);
       if (shaft_.empty()) continue;
+      if (shaft_.size() < size_t(span.count)) {
+        kept = {int(occluder_pool_.size()), int(shaft_.size())};
+        occluder_pool_.insert(occluder_pool_.end(), shaft_.begin(), shaft_.end());
+      }
     }
     b.active.push_back(s);
+    b.occluders.push_back(kept);
   }
   if (b.active.empty()) return false;
 
@@ -106,23 +149,24 @@ bool OccludedRowIntegrator::evaluate(const std::vector<OccludedSource>& sources,
   const double hs = 0.5 * (b.s1 - b.s0), ht = 0.5 * (b.t1 - b.t0);
   const double sm = b.s0 + hs, tm = b.t0 + ht;
   g_.assign(active * GenzMalikRule::kPoints, 0.0);
-  f_.assign(active * GenzMalikRule::kPoints, 0.0);
-  RayTally rays;  // exact visibility: unused
+  lit_.assign(active * GenzMalikRule::kPoints, 0);
+  Vec3 points[GenzMalikRule::kPoints];
+  double jacobians[GenzMalikRule::kPoints];
   for (int q = 0; q < GenzMalikRule::kPoints; ++q) {
-    double jac;
-    const Vec3 x = cell.at(sm + hs * rule.u[q], tm + ht * rule.v[q], &jac);
+    const Vec3 x = points[q] = cell.at(sm + hs * rule.u[q], tm + ht * rule.v[q], &jacobians[q]);
     const Receiver at{x, normal_};
-    points_.set_receiver(at);
+    volumes_.start(x);
     ++points_evaluated_;
     for (size_t a = 0; a < active; ++a) {
-      const std::vector<Vec3>& source = source_corners_[size_t(b.active[a])];
-      const double unoccluded = lambert_form_factor(at, source.data(), int(source.size()));
-      if (!(unoccluded > 0.0)) continue;
+      // A source wholly at or below x's horizon sends nothing to x: h_j = 0, neither lit nor shadowed.
+      bool above = false;
+      for (const Vec3& c : source_corners_[size_t(b.active[a])]) above = above || normal_.dot(c - x) > 0.0;
+      if (!above) continue;
       ++evaluations_;
-      const double visible = points_.visible_factor(sources[size_t(b.active[a])].patch, unoccluded, 0, 0, rays).value;
       const size_t at_q = a * GenzMalikRule::kPoints + size_t(q);
-      g_[at_q] = jac * std::max(0.0, unoccluded - visible);
-      f_[at_q] = jac * unoccluded;
+      bool lit = true;
+      g_[at_q] = jacobians[q] * blocked_at(at, b.active[a], b.occluders[a], lit);
+      lit_[at_q] = lit;
     }
   }
 
@@ -140,7 +184,7 @@ bool OccludedRowIntegrator::evaluate(const std::vector<OccludedSource>& sources,
   double vote_s = 0.0, vote_t = 0.0;  // Σ of the sources' fourth differences across s and t
   for (size_t a = 0; a < active; ++a) {
     const double* g = g_.data() + a * GenzMalikRule::kPoints;
-    const double* f = f_.data() + a * GenzMalikRule::kPoints;
+    const unsigned char* lit_at = lit_.data() + a * GenzMalikRule::kPoints;
     double mean7, mean5;
     rule.means(g, mean7, mean5);
     b.integral[a] = measure * mean7;
@@ -148,12 +192,14 @@ bool OccludedRowIntegrator::evaluate(const std::vector<OccludedSource>& sources,
     bool shadowed = false, lit = false;
     for (int q = 0; q < GenzMalikRule::kPoints; ++q) {
       shadowed = shadowed || g[q] > 0.0;
-      lit = lit || g[q] < f[q];
+      lit = lit || lit_at[q];
     }
     bool near = false;
     if ((!shadowed || !lit) && measure > kNearBoundMeasure)
-      for (const int o : sources[size_t(b.active[a])].occluders)
-        if ((near = occluder_distance(o, centre) - radius < 2.0 * radius)) break;
+      for (int i = 0; i < b.occluders[a].count; ++i)
+        if ((near =
+                 occluder_distance(occluder_pool_[size_t(b.occluders[a].first + i)], centre) - radius < 2.0 * radius))
+          break;
     if (near) {
       // Every point of the rule is lit, or every point is in full shadow, yet an occluder lies
       // closer to the box than the box's size: a shadow (or a gap of light) thinner than the
@@ -162,6 +208,11 @@ bool OccludedRowIntegrator::evaluate(const std::vector<OccludedSource>& sources,
       // box are at most its unoccluded integral (0 <= h <= F): that bound is the error, and the
       // longer side is halved. (An occluder farther away casts penumbrae about as wide as its
       // distance, which the rule's points do sample.)
+      // The unoccluded factors, needed here only (a few boxes of the row).
+      const std::vector<Vec3>& source = source_corners_[size_t(b.active[a])];
+      double f[GenzMalikRule::kPoints];
+      for (int q = 0; q < GenzMalikRule::kPoints; ++q)
+        f[q] = jacobians[q] * lambert_form_factor(Receiver{points[q], normal_}, source.data(), int(source.size()));
       double bound7, bound5;
       rule.means(f, bound7, bound5);
       error = measure * std::max(0.0, bound7);
@@ -255,6 +306,7 @@ OccludedRowResult OccludedRowIntegrator::integrate(int receiver, const std::vect
   heap_.clear();
   evaluations_ = points_evaluated_ = 0;
   if (sources.empty()) return result;
+  sources_ = &sources;
   const Patch& p = mesh_.patches[size_t(receiver)];
   receiver_count_ = p.corner_count;
   mesh_.polygon(receiver, receiver_);
@@ -286,11 +338,16 @@ OccludedRowResult OccludedRowIntegrator::integrate(int receiver, const std::vect
 
   const auto by_error = [](const Box& a, const Box& b) { return a.error < b.error; };
   double error = 0.0, settled_error = 0.0;
-  std::vector<int> candidates(sources.size());
-  std::iota(candidates.begin(), candidates.end(), 0);
+  // Each source starts with the occluders of the pair's shaft.
+  occluder_pool_.clear();
+  std::vector<std::pair<int, OccluderSpan>> candidates;
+  for (size_t k = 0; k < sources.size(); ++k) {
+    candidates.push_back({int(k), {int(occluder_pool_.size()), int(sources[k].occluders.size())}});
+    occluder_pool_.insert(occluder_pool_.end(), sources[k].occluders.begin(), sources[k].occluders.end());
+  }
   for (int c = 0; c < int(cells_.size()); ++c) {
-    Box b{c, 0.0, 1.0, 0.0, 1.0, 0.0, true, {}, {}, {}};
-    if (!evaluate(sources, candidates, b)) continue;
+    Box b{c, 0.0, 1.0, 0.0, 1.0, 0.0, true, {}, {}, {}, {}};
+    if (!evaluate(candidates, b)) continue;
     error += b.error;
     heap_.push_back(std::move(b));
     std::push_heap(heap_.begin(), heap_.end(), by_error);
@@ -318,14 +375,14 @@ OccludedRowResult OccludedRowIntegrator::integrate(int receiver, const std::vect
         settled_error += parent.source_error[a];
         error += parent.source_error[a];
       } else {
-        candidates.push_back(parent.active[a]);
+        candidates.push_back({parent.active[a], parent.occluders[a]});
       }
     }
     for (int half = 0; half < 2 && !candidates.empty(); ++half) {
-      Box b{parent.cell, parent.s0, parent.s1, parent.t0, parent.t1, 0.0, true, {}, {}, {}};
+      Box b{parent.cell, parent.s0, parent.s1, parent.t0, parent.t1, 0.0, true, {}, {}, {}, {}};
       if (parent.split_s) (half == 0 ? b.s1 : b.s0) = 0.5 * (parent.s0 + parent.s1);
       else (half == 0 ? b.t1 : b.t0) = 0.5 * (parent.t0 + parent.t1);
-      if (!evaluate(sources, candidates, b)) continue;
+      if (!evaluate(candidates, b)) continue;
       error += b.error;
       heap_.push_back(std::move(b));
       std::push_heap(heap_.begin(), heap_.end(), by_error);

@@ -9,14 +9,16 @@
 // Only the blocked parts h_j are integrated numerically.
 //
 // The sources of a row share their receiver points: at each point the shadow volumes of the
-// occluders are built once and serve every source (PointVisibility), and the receiver is refined
+// occluders are built once and serve every source (ShadowVolumes), and the receiver is refined
 // where the row's blocked part is uncertain, not once per pair. In a closed room the exact visible
 // factors from a point partition its hemisphere, so the row sum's error is the error of
 // Σ_j ∫ h_j: the integration stops when the cells' estimates of it, Σ_cells Σ_j |I7_j − I5_j|,
 // sum to tolerance × A_i (or the evaluation budget is spent, and the result says so).
 //  - h_j vanishes exactly on every part of the receiver from which no occluder meets the shaft to
 //    P_j: each cell is shaft-culled per source first (Haines & Wallace 1994), and a source with no
-//    occluder left is dropped from the cell without a single evaluation.
+//    occluder left is dropped from the cell without a single evaluation. The occluders left are
+//    the only ones clipped at the cell's points (and its halves' points, which lie in the same
+//    shaft), so no point culls again.
 //  - h_j is discontinuous only where an occluder touches or crosses the receiver (a table leg on a
 //    floor quad: points under the leg see nothing, points beside it see the leg's face). The
 //    receiver is cut along the plane of every such occluder first, so that these lines are cell
@@ -32,11 +34,13 @@
 // axis of larger fourth difference, until the estimates sum to the tolerance.
 #pragma once
 
+#include <utility>
 #include <vector>
 
 #include "formfactors/receiver_cells.h"
 #include "geometry/polygon.h"
 #include "patching/patching.h"
+#include "visibility/shadow_clipping.h"
 #include "visibility/visibility.h"
 
 namespace photometria {
@@ -78,19 +82,29 @@ class OccludedRowIntegrator {
                               long long max_evaluations, std::vector<double>& blocked);
 
  private:
+  // Occluder indices occluder_pool_[first, first + count).
+  struct OccluderSpan {
+    int first = 0, count = 0;
+  };
   struct Box {
     int cell;
     double s0, s1, t0, t1;
-    double error;                  // Σ over `active` of source_error
-    bool split_s;                  // halve across s (else t)
-    std::vector<int> active;       // sources (indices into the row's) not settled on this box
-    std::vector<double> integral;  // per active source: ∫ h_j over the box (m²)
+    double error;                         // Σ over `active` of source_error
+    bool split_s;                         // halve across s (else t)
+    std::vector<int> active;              // sources (indices into the row's) not settled on this box
+    std::vector<OccluderSpan> occluders;  // per active source: those that may meet its shaft from the box
+    std::vector<double> integral;         // per active source: ∫ h_j over the box (m²)
     std::vector<double> source_error;
   };
   void cut_along_standing_occluders(const std::vector<OccludedSource>& sources);
-  // Box b's active sources among `candidates` (the shaft-culled ones) and their integrals; false
-  // when none is left (h_j = 0 on the box exactly for every candidate).
-  bool evaluate(const std::vector<OccludedSource>& sources, const std::vector<int>& candidates, Box& b);
+  // Box b's active sources among `candidates` (sources with the occluders that may meet their shaft
+  // from a box containing b) and their integrals; false when none is left (h_j = 0 on the box
+  // exactly for every candidate).
+  bool evaluate(const std::vector<std::pair<int, OccluderSpan>>& candidates, Box& b);
+  // h_j(x) = F(dA_x → P_j) − F_vis(dA_x → P_j) for source k of the row at point `at`, given the
+  // occluders that may meet its shaft from x (volumes_ started at x); `lit`: some of the source
+  // above x's horizon is visible.
+  double blocked_at(const Receiver& at, int k, OccluderSpan occluders, bool& lit);
   // True when the piece of the receiver lies under a convex solid standing on it (a table leg on a
   // floor quad): nothing is visible from it.
   bool under_a_solid(const Polygon& piece) const;
@@ -99,8 +113,12 @@ class OccludedRowIntegrator {
 
   const Visibility& vis_;
   const PatchMesh& mesh_;
-  PointVisibility points_;
-  // The receiver of the current row.
+  visibility_detail::ShadowVolumes volumes_;  // seen from the current receiver point
+  visibility_detail::PiecePool pieces_clip_, hidden_;
+  std::vector<int> casting_;        // scratch of blocked_at
+  std::vector<int> occluder_pool_;  // the row's occluder lists (OccluderSpan), appended as boxes are culled
+  // The receiver and the sources of the current row.
+  const std::vector<OccludedSource>* sources_ = nullptr;
   Vec3 receiver_[4];
   int receiver_count_ = 0;
   Vec3 normal_;
@@ -108,9 +126,10 @@ class OccludedRowIntegrator {
   std::vector<ReceiverCell> cells_;
   std::vector<Box> heap_;
   std::vector<std::vector<Vec3>> source_corners_;  // per source of the row
-  std::vector<int> shaft_;                         // scratch of the per-source culling
+  std::vector<int> shaft_, parent_list_;           // scratch of the per-source culling
   std::vector<int> standing_;                      // the row's occluders touching or crossing the receiver
-  std::vector<double> g_, f_;                      // per (active source, point): h_j and F, times the Jacobian
+  std::vector<double> g_;                          // per (active source, point): h_j times the Jacobian
+  std::vector<unsigned char> lit_;                 // per (active source, point): blocked_at's `lit`
   std::vector<long long> near_stamp_;              // per occluder: the box its near_ distance is for
   std::vector<double> near_;
   long long box_stamp_ = 0;

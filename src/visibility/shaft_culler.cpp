@@ -104,16 +104,19 @@ class Shaft {
     auto try_plane = [&](Vec3 m, const Vec3& p0) {
       const double len = m.norm();
       if (!(len > 0.0) || plane_count_ == kMaxPlanes) return;
-      m /= len;
-      const double d = m.dot(p0);
+      // Sides tested before normalising (the tolerance scaled instead), and given up at the first
+      // point on each side: most candidates are not hull planes, and show it within a few points.
+      const double d = m.dot(p0), tol = tol_ * len;
       bool below = true, above = true;
-      for (int k = 0; k < np; ++k) {
+      for (int k = 0; k < np && (below || above); ++k) {
         const double s = m.dot(pts[k]) - d;
-        below = below && s <= tol_;
-        above = above && s >= -tol_;
+        below = below && s <= tol;
+        above = above && s >= -tol;
       }
-      if (below) planes_[plane_count_++] = {m, d};
-      else if (above) planes_[plane_count_++] = {-m, -d};
+      if (!below && !above) return;
+      m /= len;
+      if (below) planes_[plane_count_++] = {m, d / len};
+      else planes_[plane_count_++] = {-m, -d / len};
     };
     auto edges_with_vertices = [&](const Vec3* p, int n, const Vec3* q, int nq) {
       if (n < 2) return;

@@ -82,6 +82,16 @@ GroupedShaftCuller::GroupedShaftCuller(const ShaftCuller& culler, const PatchMes
         const double cu[4] = {us[0], us[1], us[1], us[0]}, cv[4] = {vs[0], vs[0], vs[1], vs[1]};
         for (int c = 0; c < 4; ++c) tile.corners[tile.corner_count++] = cu[c] * u + cv[c] * v + wc * w;
       }
+      // A face that is one patch, corner for corner: the patch's shaft is the face's, so its list
+      // is the face's (occluders()), with no tile or patch shaft built again.
+      if (patches.size() == 1) {
+        const Patch& p = mesh.patches[size_t(patches[0])];
+        const Polygon& face = culler.scene_faces()[size_t(f)];
+        tile.whole_face = p.corner_count == static_cast<int>(face.size());
+        for (int c = 0; c < p.corner_count && tile.whole_face; ++c)
+          tile.whole_face =
+              std::find(face.begin(), face.end(), mesh.points[size_t(p.corners[size_t(c)])]) != face.end();
+      }
       const int t = static_cast<int>(tiles_.size());
       tiles_.push_back(tile);
       tile_corner_counts_.push_back(static_cast<unsigned char>(tile.corner_count));
@@ -124,6 +134,10 @@ void GroupedShaftCuller::occluders(int patch, const Vec3* b, int nb, std::vector
   const int t = patch >= 0 && patch < static_cast<int>(tile_of_patch_.size()) ? tile_of_patch_[size_t(patch)] : -1;
   if (t < 0) {
     culler_->occluders(receiver_, receiver_count_, b, nb, out);
+    return;
+  }
+  if (tiles_[size_t(t)].whole_face) {
+    out = group(tiles_[size_t(t)].face);
     return;
   }
   culler_->occluders_among(receiver_, receiver_count_, b, nb, group(culler_->scene_face_count() + t), out);

@@ -189,7 +189,8 @@ class GroupedShaftCuller {
  private:
   struct Tile {
     int face = 0;
-    int corner_count = 0;  // 4 (a rectangle in the face's plane) or 8 (a box)
+    int corner_count = 0;     // 4 (a rectangle in the face's plane) or 8 (a box)
+    bool whole_face = false;  // its one patch is its whole face: the patch's occluders are the face's
     Vec3 corners[8];
   };
   // The candidate occluders of group g (scene faces first, then tiles), computed on first need
