@@ -24,6 +24,8 @@ import json
 import math
 import sys
 
+from vs3 import read_vs3  # scripts/vs3.py
+
 
 def gq(x, y, eta):
     r2 = y * y + eta * eta
@@ -43,22 +45,6 @@ def perpendicular(xp, yp, xq, eq):
                 for l, e in enumerate(eq):
                     s += (-1) ** (i + j + k + l) * gq(x - xi, y, e)
     return abs(s) / (2.0 * math.pi)
-
-
-def read_vs3(path):
-    verts, surfs = {}, []
-    for line in open(path):
-        f = line.split()
-        if not f:
-            continue
-        if f[0] == "V":
-            verts[int(f[1])] = tuple(map(float, f[2:5]))
-        elif f[0] == "S":
-            ids = [int(v) for v in f[2:6] if int(v) != 0]
-            surfs.append([verts[v] for v in ids])
-        elif f[0].lower().startswith("end"):
-            break
-    return surfs
 
 
 def box(poly):

@@ -22,18 +22,7 @@ import json
 import math
 from collections import Counter
 
-
-def read_vs3(path):
-    verts, faces = {}, []
-    for line in open(path):
-        t = line.split()
-        if not t:
-            continue
-        if t[0] == "V":
-            verts[int(t[1])] = tuple(float(x) for x in t[2:5])
-        elif t[0] == "S":
-            faces.append([verts[int(x)] for x in t[2:6] if int(x) > 0])
-    return faces
+from vs3 import read_vs3  # scripts/vs3.py
 
 
 def sub(a, b):

@@ -24,6 +24,26 @@ Scene cube_with_box(const Vec3& lo, const Vec3& hi) {
   return s;
 }
 
+// The unit cube (faces 0..5, the floor 0) with a box [lo, hi] standing on the floor, in patches of
+// edge at most 0.5 (the floor in four quarters).
+struct BoxOnFloor {
+  Scene scene;
+  PatchMesh mesh;
+  BoxOnFloor(const Vec3& lo, const Vec3& hi) : scene(cube_with_box(lo, hi)) {
+    PatchingOptions patching;
+    patching.max_edge = 0.5;
+    mesh = subdivide(scene, patching);
+  }
+  // The floor quarter on the high (or low) side of x = 0.5 and of y = 0.5.
+  int floor_quarter(bool high_x, bool high_y) const {
+    for (int k = 0; k < mesh.size(); ++k) {
+      const Patch& q = mesh.patches[size_t(k)];
+      if (q.face == 0 && (q.centroid.x() > 0.5) == high_x && (q.centroid.y() > 0.5) == high_y) return k;
+    }
+    return -1;
+  }
+};
+
 struct Pair {
   int i, j;
   Vec3 r[4], s[4];
@@ -135,17 +155,14 @@ TEST(OccludedPairs, FloatingBoxShadowAgreesWithBruteForce) {
 TEST(OccludedPairs, ThinShadowAtAContactIsFound) {
   // A box standing on the floor, the floor patch beside it, and a wall patch the box partly hides:
   // near the contact line the shadow narrows to nothing, thinner than a fixed rule's spacing.
-  Scene scene = builders::unit_cube(0.5, 0.0);
-  builders::add_box(scene, {0.4, 0.4, 0.0}, {0.5, 0.6, 0.3});
-  PatchingOptions patching;
-  patching.max_edge = 0.5;  // floor patches touch the box's faces
-  const PatchMesh mesh = subdivide(scene, patching);
-  const Visibility vis(scene, VisibilityMethod::Exact);
+  const BoxOnFloor room({0.4, 0.4, 0.0}, {0.5, 0.6, 0.3});  // floor patches touch the box's faces
+  const PatchMesh& mesh = room.mesh;
+  const Visibility vis(room.scene, VisibilityMethod::Exact);
   // Receiver: the floor patch of x in [0.5, 1], y in [0.5, 1]; source: the wall x = 0, upper half.
-  int receiver = -1, source = -1;
+  const int receiver = room.floor_quarter(true, true);
+  int source = -1;
   for (int k = 0; k < mesh.size(); ++k) {
     const Patch& q = mesh.patches[size_t(k)];
-    if (q.face == 0 && q.centroid.x() > 0.5 && q.centroid.y() > 0.5) receiver = k;
     if (q.face == 5 && q.centroid.z() > 0.5 && q.centroid.y() > 0.5) source = k;
   }
   ASSERT_GE(receiver, 0);
@@ -210,17 +227,10 @@ TEST(OccludedPairs, RowErrorEstimateBoundsTheRowSumsError) {
 TEST(OccludedPairs, AReceiverUnderASolidSeesNothingFromItsFootprint) {
   // A closed box stands on one floor patch of a closed room: points of its footprint see nothing,
   // the rest of the patch a whole hemisphere, so the patch's row sums to 1 − A_footprint / A.
-  Scene scene = builders::unit_cube(0.5, 0.0);
-  builders::add_box(scene, {0.1, 0.1, 0.0}, {0.3, 0.2, 0.25});
-  PatchingOptions patching;
-  patching.max_edge = 0.5;
-  const PatchMesh mesh = subdivide(scene, patching);
-  const Visibility vis(scene, VisibilityMethod::Exact);
-  int receiver = -1;
-  for (int k = 0; k < mesh.size(); ++k) {
-    const Patch& q = mesh.patches[size_t(k)];
-    if (q.face == 0 && q.centroid.x() < 0.5 && q.centroid.y() < 0.5) receiver = k;
-  }
+  const BoxOnFloor room({0.1, 0.1, 0.0}, {0.3, 0.2, 0.25});
+  const PatchMesh& mesh = room.mesh;
+  const Visibility vis(room.scene, VisibilityMethod::Exact);
+  const int receiver = room.floor_quarter(false, false);
   ASSERT_GE(receiver, 0);
   FillOptions o;
   o.tolerance = 1e-9;
@@ -236,17 +246,10 @@ TEST(OccludedPairs, AReceiverUnderASolidSeesNothingFromItsFootprint) {
 TEST(OccludedPairs, AReceiverWhollyUnderASolidIsSettledWithoutAPoint) {
   // A box stands exactly on one floor patch: the patch sees nothing, so every source's blocked
   // part is its whole unoccluded factor, found from the footprint without evaluating a point.
-  Scene scene = builders::unit_cube(0.5, 0.0);
-  builders::add_box(scene, {0.0, 0.0, 0.0}, {0.5, 0.5, 0.25});
-  PatchingOptions patching;
-  patching.max_edge = 0.5;
-  const PatchMesh mesh = subdivide(scene, patching);
-  const Visibility vis(scene, VisibilityMethod::Exact);
-  int receiver = -1;
-  for (int k = 0; k < mesh.size(); ++k) {
-    const Patch& q = mesh.patches[size_t(k)];
-    if (q.face == 0 && q.centroid.x() < 0.5 && q.centroid.y() < 0.5) receiver = k;
-  }
+  const BoxOnFloor room({0.0, 0.0, 0.0}, {0.5, 0.5, 0.25});
+  const PatchMesh& mesh = room.mesh;
+  const Visibility vis(room.scene, VisibilityMethod::Exact);
+  const int receiver = room.floor_quarter(false, false);
   ASSERT_GE(receiver, 0);
   std::vector<OccludedSource> sources;
   std::vector<Pair> pairs;
