@@ -48,6 +48,16 @@ TEST(Validation, QuickSuiteMeetsItsAccuracyAndErrorsFallWithRefinement) {
   for (const std::string s :
        {"white furnace rho=0.5", "white furnace rho=0.9", "white furnace rho=0.99", "white furnace rho=0.999"})
     for (const auto& r : by[s]) EXPECT_LE(r.max_rel_error, 1e-9) << s;
+  // The hierarchical method's ladder: within the bounds (rms <= ε, max <= 5ε) and falling.
+  const auto& hier = by["hierarchical: white furnace rho=0.9"];
+  ASSERT_EQ(hier.size(), 2u);
+  const double eps[2] = {1e-1, 3e-2};
+  for (size_t k = 0; k < 2; ++k) {
+    EXPECT_LE(hier[k].rms_rel_error, eps[k]) << hier[k].setting;
+    EXPECT_LE(hier[k].max_rel_error, 5 * eps[k]) << hier[k].setting;
+    EXPECT_GT(hier[k].max_rel_error, 0.0) << hier[k].setting;  // not the exact furnace by construction
+  }
+  EXPECT_LT(hier[1].max_rel_error, hier[0].max_rel_error);
 }
 
 TEST(Validation, WritesCsvAndPlot) {

@@ -14,11 +14,13 @@
 #include "formfactors/formfactors.h"
 #include "formfactors/pair_integration.h"
 #include "formfactors/quadrature.h"
+#include "hierarchical/hierarchical.h"
 #include "io/atomic_file.h"
 #include "kernels/distant.h"
 #include "kernels/lambert.h"
 #include "kernels/sphere.h"
 #include "patching/patching.h"
+#include "pipeline/direct_light.h"
 #include "solver/gauss_seidel.h"
 #include "util/error.h"
 #include "validation/scenes.h"
@@ -84,6 +86,7 @@ class Suite {
     cube_floor_emitting();
     white_furnace();
     furnace_solvers();
+    hierarchical_furnace();
     sphere_cap();
     return rows_;
   }
@@ -432,6 +435,31 @@ class Suite {
         err.into(row);
         emit(row);
       }
+  }
+
+  // The hierarchical method (Hanrahan, Salzman & Aupperle 1991; hierarchical/hierarchical.h) on
+  // the white furnace, ρ = 0.9, one root per wall, at a ladder of ε: every leaf's B against
+  // E / (1 − ρ). Its error is that of the links' form factors summed over a leaf's gathers (the
+  // links are refined to ε), amplified by 1 / (1 − ρ).
+  void hierarchical_furnace() {
+    const double rho = 0.9;
+    const Scene s = unit_cube_scene(rho, 1.0, -1);
+    const PatchMesh roots = subdivide(s, {});
+    const DirectLighting lights(s);
+    for (double eps : opt_.quick ? std::vector<double>{1e-1, 3e-2} : std::vector<double>{1e-1, 3e-2, 1e-2, 3e-3}) {
+      const auto t0 = Clock::now();
+      HierarchicalOptions o;
+      o.error = eps;
+      HierarchicalRadiosity h(s, roots, nullptr, lights, o);
+      const HierarchicalSolution sol = h.solve();
+      ErrorStats err;
+      for (int i = 0; i < int(sol.radiosity.rows()); ++i) err.add(sol.radiosity(i, 0), 1.0 / (1.0 - rho));
+      std::ostringstream setting;
+      setting << "eps=" << eps << " (" << sol.stats.links << " links)";
+      ValidationRow row{"hierarchical: white furnace rho=0.9", setting.str(), sol.leaves.size(), 1, 0, 0, 0, since(t0)};
+      err.into(row);
+      emit(row);
+    }
   }
 
   // Sphere enclosure with an emitting polar cap (z >= 0.5, a quarter of the area), ρ = 0.5:
