@@ -1,6 +1,8 @@
 // In-memory scenes for unit tests (no loader involved).
 #pragma once
 
+#include <cmath>
+
 #include "scene/scene.h"
 
 namespace builders {
@@ -51,6 +53,39 @@ inline void add_box(Scene& s, const Vec3& lo, const Vec3& hi, int material = 0) 
     for (int k : f) v.push_back(b + k);
     s.faces.push_back({v, material, 0, static_cast<int>(s.faces.size())});
   }
+}
+
+// Appends a closed, non-convex solid: a sphere of `rings` × `segments` triangles around `centre`
+// whose radius varies as r (1 + bump sin 3t sin 4p) with the polar angle t and azimuth p (a
+// scanned object), its triangles outward.
+inline void add_bumpy_sphere(Scene& s, const Vec3& centre, double r, int rings, int segments, double bump,
+                             int material = 0) {
+  const double pi = 3.14159265358979323846;
+  const int b = static_cast<int>(s.vertices.size());
+  auto point = [&](int i, int j) {
+    const double t = pi * i / rings, p = 2 * pi * j / segments;
+    const double radius = r * (1 + bump * std::sin(3 * t) * std::sin(4 * p));
+    return Vec3(centre.x() + radius * std::sin(t) * std::cos(p), centre.y() + radius * std::sin(t) * std::sin(p),
+                centre.z() - radius * std::cos(t));
+  };
+  s.vertices.push_back(point(0, 0));  // bottom pole
+  for (int i = 1; i < rings; ++i)
+    for (int j = 0; j < segments; ++j) s.vertices.push_back(point(i, j));
+  s.vertices.push_back(point(rings, 0));  // top pole
+  const int top = static_cast<int>(s.vertices.size()) - 1;
+  auto ring = [&](int i, int j) { return b + 1 + (i - 1) * segments + j % segments; };
+  auto add = [&](int x, int y, int z) {
+    s.faces.push_back({{x, y, z}, material, 0, static_cast<int>(s.faces.size())});
+  };
+  for (int j = 0; j < segments; ++j) {
+    add(b, ring(1, j + 1), ring(1, j));
+    add(top, ring(rings - 1, j), ring(rings - 1, j + 1));
+  }
+  for (int i = 1; i + 1 < rings; ++i)
+    for (int j = 0; j < segments; ++j) {
+      add(ring(i, j), ring(i, j + 1), ring(i + 1, j + 1));
+      add(ring(i, j), ring(i + 1, j + 1), ring(i + 1, j));
+    }
 }
 
 }  // namespace builders

@@ -29,7 +29,7 @@ TEST(VisibilityChoice, FewOccludersPerShaftClip) {
   builders::add_box(s, {0.4, 0.4, 0.0}, {0.6, 0.6, 0.5});
   const VisibilityChoice c = choose_visibility(s, VisibilityMode::Auto);
   EXPECT_EQ(c.mode, VisibilityMode::Exact);
-  EXPECT_NE(c.reason.find("occluders per occluded shaft"), std::string::npos) << c.reason;
+  EXPECT_NE(c.reason.find("occluders per occluded point shaft"), std::string::npos) << c.reason;
   const ShaftCuller culler(s);
   const VisibilityCostEstimate e = estimate_visibility_cost(culler, kDefaultRays);
   EXPECT_GT(e.sampled_pairs, 0);
@@ -67,6 +67,24 @@ TEST(VisibilityChoice, ManyOccludersPerShaftCastRays) {
   EXPECT_EQ(choose_visibility(box, VisibilityMode::Auto, 64).mode, VisibilityMode::Exact);
   // Very few rays make them the choice even for a box.
   EXPECT_EQ(choose_visibility(box, VisibilityMode::Auto, 1).mode, VisibilityMode::Rays);
+}
+
+TEST(VisibilityChoice, AClosedObjectCountsOnlyTheOccludersFacingThePoint) {
+  // A scanned object of 960 triangles in the room: from a point outside it, only the occluders
+  // facing the point can shadow it (ShaftCuller::drop_hidden_occluders). The same surface with
+  // one triangle missing is no solid, and every triangle in a shaft counts.
+  Scene closed = builders::unit_cube();
+  builders::add_bumpy_sphere(closed, {0.5, 0.5, 0.45}, 0.25, 20, 24, 0.1);
+  Scene open = closed;
+  open.faces.pop_back();
+  const ShaftCuller closed_culler(closed), open_culler(open);
+  ASSERT_EQ(closed_culler.closed_solid_count(), 1);
+  ASSERT_EQ(open_culler.closed_solid_count(), 0);
+  const VisibilityCostEstimate c = estimate_visibility_cost(closed_culler, kDefaultRays);
+  const VisibilityCostEstimate o = estimate_visibility_cost(open_culler, kDefaultRays);
+  EXPECT_GT(c.occluded_pairs, 0);
+  EXPECT_LT(c.mean_occluders, 0.75 * o.mean_occluders);
+  EXPECT_LT(c.exact_seconds, o.exact_seconds);
 }
 
 }  // namespace

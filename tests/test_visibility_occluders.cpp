@@ -222,3 +222,104 @@ TEST(VisibilityOccluders, ScenesOfBigFacesKeepOneOccluderPerFace) {
     EXPECT_EQ(culler.occluder_polygons()[size_t(f)], room.face_polygon(f));
   }
 }
+
+// A scanned object: a closed solid that is not convex. Its back occluders go for points outside
+// it, and exact factors through what is left equal those through every occluder.
+TEST(VisibilityOccluders, AClosedNonConvexSolidCastsItsShadowThroughItsFrontOccluders) {
+  Scene s = empty_scene();
+  const Vec3 centre(0.1, -0.05, 0.5);
+  builders::add_bumpy_sphere(s, centre, 0.3, 9, 12, 0.25);
+  const int solid_faces = static_cast<int>(s.faces.size());
+  // A floor quad just below it (its lowest corners at z = 0.5 − 0.3 · 1.25 cos 20° > 0.14).
+  add_grid(s, -1.0, -1.0, 2.0, 2.0, 1, 1, 0.14, false, [](int, int) { return false; });
+  const ShaftCuller culler(s);
+  EXPECT_EQ(culler.convex_solid_count(), 0);
+  ASSERT_EQ(culler.closed_solid_count(), 1);
+  for (int f = 0; f < solid_faces; ++f) EXPECT_EQ(culler.closed_solid_of(culler.occluder_of_face(f)), 0);
+  EXPECT_EQ(culler.closed_solid_of(culler.occluder_of_face(solid_faces)), -1);  // the floor
+
+  const std::vector<int> everything = all(culler.occluder_count());
+  const Polygon source = {{-1.5, -1.5, 1.4}, {-1.5, 1.5, 1.4}, {1.5, 1.5, 1.4}, {1.5, -1.5, 1.4}};  // facing down
+  // Checks x (on_face, normal as drop_hidden_occluders takes them): the factor through the kept
+  // occluders equals the one through all; returns how many were dropped.
+  auto check = [&](const Receiver& x, int on_face, const Polygon& src) {
+    std::vector<int> kept = everything;
+    culler.drop_hidden_occluders(x.point, kept, on_face, &x.normal);
+    const double f0 = lambert_form_factor(x, src.data(), int(src.size()));
+    const double want =
+        exact_visible_form_factor(x, src.data(), int(src.size()), culler.occluder_polygons(), everything);
+    const double got = exact_visible_form_factor(x, src.data(), int(src.size()), culler.occluder_polygons(), kept);
+    EXPECT_NEAR(got, want, 1e-13 + 1e-12 * f0) << x.point.transpose() << " on face " << on_face;
+    return static_cast<int>(everything.size() - kept.size());
+  };
+  // Floor points under the solid (inside its bounding box, outside by the crossings' parity) and
+  // beside it: the solid's upper occluders, which they lie behind, are dropped.
+  int dropped_on_floor = 0, floor_points = 0;
+  for (int j = 0; j < 9; ++j)
+    for (int i = 0; i < 9; ++i) {
+      const Receiver x{Vec3(-0.4 + i * 0.1 + 0.013, -0.55 + j * 0.1 + 0.007, 0.14), Vec3::UnitZ()};
+      dropped_on_floor += check(x, solid_faces, source) > 0;
+      ++floor_points;
+    }
+  EXPECT_EQ(dropped_on_floor, floor_points);
+  // Beside it, inside its bounding box (at 0.39 m from the centre, diagonally; the solid reaches
+  // 0.375 m at most): outside by the parity of the crossings.
+  int dropped_beside = 0;
+  for (int k = 0; k < 4; ++k) {
+    const double a = 0.785398 + k * 1.570796;
+    const Vec3 out(std::cos(a), std::sin(a), 0.0);
+    const Receiver x{centre + 0.39 * out, out};
+    const Vec3 u = Vec3::UnitZ(), v = out.cross(u);
+    Polygon in_front;
+    for (const auto& [p, q] : {std::pair{-1.0, -1.0}, {1.0, -1.0}, {1.0, 1.0}, {-1.0, 1.0}})
+      in_front.push_back(x.point + 0.6 * out + 0.4 * (p * u + q * v));
+    std::reverse(in_front.begin(), in_front.end());
+    dropped_beside += check(x, -1, in_front) > 0;
+  }
+  EXPECT_EQ(dropped_beside, 4);
+  // A vertex of the solid without a normal: a segment may start into the solid there.
+  std::vector<int> kept = everything;
+  culler.drop_hidden_occluders(s.vertices[0], kept);
+  EXPECT_EQ(kept.size(), everything.size());
+  // Inside the solid: a segment may leave it through any occluder, so every one is kept.
+  kept = everything;
+  culler.drop_hidden_occluders(centre, kept);
+  EXPECT_EQ(kept.size(), everything.size());
+  // On its own faces (a patch's quadrature point inside a face), toward a source in front of
+  // each face: the back occluders go, the factor stays.
+  int dropped_on_faces = 0;
+  for (int f = 0; f < solid_faces; f += 5) {
+    const Polygon w = s.face_polygon(f);
+    const Vec3 n = polygon_normal(w), c = polygon_centroid(w);
+    const Vec3 u = (w[1] - w[0]).normalized(), v = n.cross(u);
+    Polygon in_front;
+    for (const auto& [a, b] : {std::pair{-1.0, -1.0}, {1.0, -1.0}, {1.0, 1.0}, {-1.0, 1.0}})
+      in_front.push_back(c + 0.8 * n + 0.3 * (a * u + b * v));
+    std::reverse(in_front.begin(), in_front.end());  // facing back toward the face
+    dropped_on_faces += check(Receiver{c, n}, f, in_front) > 0;
+  }
+  EXPECT_GT(dropped_on_faces, 0);
+  // At its vertices, with the normal of a face there (a gather point): dropped only where that
+  // is exact (convex vertices); the factor stays everywhere, saddles included.
+  int dropped_at_vertices = 0;
+  for (int f = 0; f < solid_faces; f += 3) {
+    const Polygon w = s.face_polygon(f);
+    const Vec3 n = polygon_normal(w);
+    Polygon in_front;
+    for (const auto& [a, b] : {std::pair{-1.0, -1.0}, {1.0, -1.0}, {1.0, 1.0}, {-1.0, 1.0}}) {
+      const Vec3 u = (w[1] - w[0]).normalized(), v = n.cross(u);
+      in_front.push_back(w[0] + 0.8 * n + 0.3 * (a * u + b * v));
+    }
+    std::reverse(in_front.begin(), in_front.end());
+    dropped_at_vertices += check(Receiver{w[0], n}, -1, in_front) > 0;
+  }
+  EXPECT_GT(dropped_at_vertices, 0);
+}
+
+TEST(VisibilityOccluders, AClosedRoomIsNoSolid) {
+  // Its normals point inward: the room is the outside of what its faces bound.
+  const Scene room = builders::unit_cube();
+  const ShaftCuller culler(room);
+  EXPECT_EQ(culler.convex_solid_count(), 0);
+  EXPECT_EQ(culler.closed_solid_count(), 0);
+}

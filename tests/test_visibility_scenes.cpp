@@ -383,6 +383,11 @@ TEST(VisibilityScenes, PointVisibilityPerTileEqualsClippingEachPatch) {
   std::vector<Case> cases;
   cases.push_back({load_scene(mesh_path("cornell_box.obj")), 0.15, 5});
   cases.push_back({validation::bench_room_scene(), 0.3, 13});
+  // A scanned object (a closed solid that is not convex) in a room: its back faces are dropped
+  // for the points outside it, on it (centroids, by their face) and at its convex vertices.
+  Scene scanned = builders::unit_cube();
+  builders::add_bumpy_sphere(scanned, {0.45, 0.5, 0.35}, 0.25, 8, 10, 0.2);
+  cases.push_back({scanned, 0.25, 4});
   for (const PointCulling culling : {PointCulling::Cones, PointCulling::Tree}) {
     for (const Case& c : cases) {
       SCOPED_TRACE(culling == PointCulling::Cones ? "cone culling" : "tree culling");
@@ -406,7 +411,7 @@ TEST(VisibilityScenes, PointVisibilityPerTileEqualsClippingEachPatch) {
             const Vec3 p = mesh.points[size_t(pi.corners[size_t(corner)])];
             x = Receiver{p, pi.normal, (pi.centroid - p).normalized()};
           }
-          from_point.set_receiver(x);
+          from_point.set_receiver(x, corner < 0 ? pi.face : -1);  // a centroid lies inside its face
           for (int j = 0; j < mesh.size(); ++j) {
             if (i == j) continue;
             mesh.polygon(j, b);

@@ -101,7 +101,7 @@ class RowFill {
     // clipping per tile of patches rather than per patch).
     const bool point_shafts = !s_.per_pair && nq_ == 1;
     from_point_ = s_.vis && point_shafts ? point_visibility : nullptr;
-    if (from_point_) from_point_->set_receiver(Receiver{rule_[0].point, pi_.normal});
+    if (from_point_) from_point_->set_receiver(Receiver{rule_[0].point, pi_.normal}, pi_.face);
     else if (grouped_) grouped_->set_receiver(ri_, pi_.corner_count);
   }
 
@@ -329,7 +329,7 @@ class RowFill {
     for (int q = 0; q < nq_; ++q) {
       const double v = s_.vis->point_to_patch(Receiver{rule_[q].point, pi_.normal}, source(j), pj.corner_count,
                                               pj.normal, unoccluded_[q], occluders_, s_.options.rays,
-                                              pair_stream(stream, uint64_t(q), 0), tally);
+                                              pair_stream(stream, uint64_t(q), 0), tally, false, pi_.face);
       add_rays(tally, rule_[q].weight);
       if (s_.rays_mode) ray_part_[size_t(q) * s_.n + j] = v;
       unoccluded_[q] = v;  // now the visible factor

@@ -82,7 +82,7 @@ double OccludedRowIntegrator::blocked_at(const Receiver& at, int k, OccluderSpan
   lit = true;
   casting_.assign(occluder_pool_.begin() + occluders.first, occluder_pool_.begin() + occluders.first + occluders.count);
   // Only the occluders of each convex solid that face x cast its shadow (ShaftCuller).
-  culler.drop_hidden_occluders(at.point, casting_);
+  culler.drop_hidden_occluders(at.point, casting_, receiver_face_, &at.normal);
   if (casting_.empty()) return 0.0;
   const std::vector<Vec3>& source = source_corners_[size_t(k)];
   pieces_clip_.clear();
@@ -308,6 +308,7 @@ OccludedRowResult OccludedRowIntegrator::integrate(int receiver, const std::vect
   if (sources.empty()) return result;
   sources_ = &sources;
   const Patch& p = mesh_.patches[size_t(receiver)];
+  receiver_face_ = p.face;
   receiver_count_ = p.corner_count;
   mesh_.polygon(receiver, receiver_);
   normal_ = p.normal;

@@ -121,6 +121,7 @@ class OccludedRowIntegrator {
   const std::vector<OccludedSource>* sources_ = nullptr;
   Vec3 receiver_[4];
   int receiver_count_ = 0;
+  int receiver_face_ = -1;  // its scene face: the receiver points lie inside it
   Vec3 normal_;
   std::vector<Polygon> pieces_, next_pieces_;
   std::vector<ReceiverCell> cells_;

@@ -217,7 +217,9 @@ struct HierarchicalRadiosity::Impl {
       double f = f0;
       if (vis_ && !occluders.empty() && f0 > 0.0) {
         const uint64_t stream = pair_stream(pair_stream(opt_.seed, uint64_t(p), uint64_t(q)), uint64_t(k), 0);
-        f = vis_->point_to_patch(r, eq.corners, eq.corner_count, nq, f0, occluders, opt_.rays, stream, tally);
+        // x lies inside p, so inside its root's scene face.
+        f = vis_->point_to_patch(r, eq.corners, eq.corner_count, nq, f0, occluders, opt_.rays, stream, tally, false,
+                                 roots_.patches[size_t(ep.patch)].face);
       }
       ++k;
       return f;

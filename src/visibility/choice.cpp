@@ -67,9 +67,12 @@ VisibilityCostEstimate estimate_visibility_cost(const ShaftCuller& culler, int r
   for (long long k = 0, tried = 0; tried < std::min(pairs, 8LL * samples) && e.sampled_pairs < samples; ++tried) {
     k = (k + stride) % std::max(1LL, pairs);
     const size_t a = size_t(k / n), b = size_t(k % n);
-    if (a == b || faces[a].size() + faces[b].size() > 24 || !in_front(a, b) || !in_front(b, a)) continue;
+    if (a == b || faces[b].size() + 1 > 24 || !in_front(a, b) || !in_front(b, a)) continue;
     ++e.sampled_pairs;
-    culler.occluders(faces[a].data(), int(faces[a].size()), faces[b].data(), int(faces[b].size()), found);
+    // From a receiver point (the face's centroid, inside it), as the fill and the gather cull:
+    // the point's shaft, without the back occluders of closed solids it is outside of.
+    const Vec3 x = polygon_centroid(faces[a]);
+    culler.occluders(&x, 1, faces[b].data(), int(faces[b].size()), found, /*drop_hidden=*/true, int(a));
     if (found.empty()) continue;
     ++e.occluded_pairs;
     occluders += static_cast<long long>(found.size());
@@ -102,8 +105,8 @@ VisibilityChoice choose_visibility(const Scene& scene, VisibilityMode requested,
   c.mode = exact ? VisibilityMode::Exact : VisibilityMode::Rays;
   std::ostringstream o;
   o.precision(2);
-  o << "auto: " << why << "; " << e.mean_occluders << " occluders per occluded shaft (" << e.occluded_pairs << " of "
-    << e.sampled_pairs << " sampled face pairs), so clipping costs about " << e.exact_seconds * 1e6
+  o << "auto: " << why << "; " << e.mean_occluders << " occluders per occluded point shaft (" << e.occluded_pairs
+    << " of " << e.sampled_pairs << " sampled face pairs), so clipping costs about " << e.exact_seconds * 1e6
     << " us per point against " << e.rays_seconds * 1e6 << " us for "
     << (rays == kAdaptiveRays ? "adaptive" : std::to_string(rays)) << " rays: " << (exact ? "exact clipping" : "rays");
   c.reason = o.str();

@@ -3,9 +3,10 @@
 //
 // Auto: none for a scene where nothing can block (visibility.h scene_needs_no_visibility: a
 // convex enclosure); otherwise the cheaper of exact clipping and rays by an estimate of their
-// cost per receiver point and occluded source (estimate_visibility_cost), from the occluders met
-// in the shafts of a sample of the scene's face pairs: clipping costs more the more occluders a
-// shaft holds (each cuts the visible fragments the next must clip), rays cost their count.
+// cost per receiver point and occluded source (estimate_visibility_cost), from the occluders that
+// can shadow a point of a sample of the scene's faces (its centroid) from another face: clipping
+// costs more the more occluders a point's shaft holds (each cuts the visible fragments the next
+// must clip), rays cost their count.
 #pragma once
 
 #include <cstddef>
@@ -21,15 +22,16 @@ enum class VisibilityMode { Auto, None, Rays, Exact };
 
 // The cost model of `auto`, in seconds of one core per receiver point and occluded source:
 //   exact ≈ kClipSecondsPerOccluder × m (1 + m / 4),   rays ≈ kSecondsPerRay × rays
-// with m the mean count of candidate occluders (ShaftCuller::occluders) in the shafts of the
-// sampled face pairs that have any. Measured on the project's 2-core VM (docs/performance.md
-// "How auto chooses"): 1.7 µs per exactly clipped point on the 1,666-face room, whose shafts
-// hold 3.2 occluders on average, and 0.26 µs per single ray on the same room. Packets of 8
-// (RayVisibility::blocked_from) halved the time per ray on the Cornell box (0.155 -> 0.076
-// core-µs), but the model keeps 0.26: with 0.13 it picked rays for the bench room at 0.5 m
-// (446 patches), which then took 6.5 s against 0.49 s with clipping (the rays' per-point costs
-// and their count on partly hidden pairs are not in the model).
-inline constexpr double kClipSecondsPerOccluder = 0.30e-6;
+// with m the mean count of occluders that can shadow the receiver face's centroid from the source
+// face (ShaftCuller::occluders of the point's shaft, less the back occluders of closed solids the
+// point is outside of: what the fill and the gather clip), over the sampled face pairs that have
+// any. Measured on the project's 2-core VM (docs/performance.md "How auto chooses"): 1.7 µs per
+// exactly clipped point on the 1,666-face room, where m = 1.78, and 0.26 µs per single ray on
+// the same room. Packets of 8 (RayVisibility::blocked_from) halved the time per ray on the
+// Cornell box (0.155 -> 0.076 core-µs), but the model keeps 0.26: with 0.13 it picked rays for
+// the bench room at 0.5 m (446 patches), which then took 6.5 s against 0.49 s with clipping (the
+// rays' per-point costs and their count on partly hidden pairs are not in the model).
+inline constexpr double kClipSecondsPerOccluder = 0.66e-6;
 inline constexpr double kSecondsPerRay = 0.26e-6;
 inline constexpr int kDefaultRays = kAdaptiveRays;  // rays per (receiver point, source patch) unless asked otherwise
 // The mean count adaptive sampling (visibility.h, RaySampling: 8² to 32² at 1e-2) casts per
@@ -40,14 +42,14 @@ inline constexpr double kAdaptiveRaysExpected = 306;
 struct VisibilityCostEstimate {
   int sampled_pairs = 0;        // facing face pairs whose shafts were culled
   int occluded_pairs = 0;       // of those, with a candidate occluder in the shaft
-  double mean_occluders = 0.0;  // m: candidates per shaft, over the occluded pairs
+  double mean_occluders = 0.0;  // m: occluders per point's shaft, over the occluded pairs
   double exact_seconds = 0.0;   // per receiver point and occluded source, one core
   double rays_seconds = 0.0;
 };
 
 // Samples up to `samples` pairs of facing scene faces (deterministic: a fixed stride through the
-// pairs) of the culler's scene and culls their shafts. `rays`: the ray count the run would use
-// (kAdaptiveRays: kAdaptiveRaysExpected).
+// pairs) of the culler's scene and culls the shaft from the first face's centroid to the second.
+// `rays`: the ray count the run would use (kAdaptiveRays: kAdaptiveRaysExpected).
 VisibilityCostEstimate estimate_visibility_cost(const ShaftCuller& culler, int rays, int samples = 512);
 
 // "auto", "none", "rays", "exact" -> the mode; throws Error(BadInput) naming --visibility and

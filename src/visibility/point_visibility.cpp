@@ -23,7 +23,7 @@ Visibility::Visibility(const Scene& scene, VisibilityMethod method, RaySampling 
 
 double Visibility::point_to_patch(const Receiver& x, const Vec3* source, int n, const Vec3& source_normal,
                                   double unoccluded, const std::vector<int>& occluders, int rays, uint64_t stream,
-                                  RayTally& tally, bool narrow) const {
+                                  RayTally& tally, bool narrow, int on_face) const {
   if (occluders.empty() || unoccluded <= 0.0) return unoccluded;
   // The shaft of the point and the patch is narrower than the pair's: test it too.
   thread_local std::vector<int> narrowed;
@@ -35,7 +35,7 @@ double Visibility::point_to_patch(const Receiver& x, const Vec3* source, int n, 
     // Only the occluders of each convex solid that face x cast its shadow (see ShaftCuller).
     thread_local std::vector<int> casting;
     casting = narrow ? occluders : narrowed;
-    culler_.drop_hidden_occluders(x.point, casting);
+    culler_.drop_hidden_occluders(x.point, casting, on_face, &x.normal);
     return std::min(unoccluded, exact_visible_form_factor(x, source, n, culler_.occluder_polygons(), casting,
                                                           &culler_.occluder_normals(), &culler_));
   }
@@ -144,6 +144,7 @@ struct PointVisibility::Impl {
   const Visibility* vis;
   GroupedShaftCuller grouped;
   Receiver x;
+  int on_face = -1;  // the scene face whose interior holds x, or -1
   bool receiver_set = false;
   long long generation = 0;
   std::vector<TileClip> tiles;
@@ -278,7 +279,7 @@ struct PointVisibility::Impl {
     shadowing.clear();
     for (int f = 0; f < culler.occluder_count(); ++f)
       if (!bounding[size_t(f)]) shadowing.push_back(f);
-    culler.drop_hidden_occluders(x.point, shadowing);
+    culler.drop_hidden_occluders(x.point, shadowing, on_face, &x.normal);
     candidates.resize(shadowing.size());
     for (size_t k = 0; k < shadowing.size(); ++k) {
       const Polygon& w = culler.occluder_polygons()[size_t(shadowing[k])];
@@ -365,7 +366,7 @@ struct PointVisibility::Impl {
     clip_visible.clear();
     clip_hidden.clear();
     casting = tile_occluders(t);
-    if (!cones) vis->culler().drop_hidden_occluders(x.point, casting);  // cone candidates have none
+    if (!cones) vis->culler().drop_hidden_occluders(x.point, casting, on_face, &x.normal);  // cone candidates have none
     Polygon& rect = clip_visible.push();
     rect.resize(4);
     double scale = 0.0;
@@ -400,15 +401,18 @@ PointVisibility::~PointVisibility() = default;
 PointVisibility::PointVisibility(PointVisibility&&) noexcept = default;
 PointVisibility& PointVisibility::operator=(PointVisibility&&) noexcept = default;
 
-void PointVisibility::set_receiver(const Receiver& x) {
+void PointVisibility::set_receiver(const Receiver& x, int on_face) {
   last_tile_ = -2;  // tile_shadow's kept answer was for the last point
   // Culling and clipping depend on the point alone: a receiver at the same point (another
   // normal, as at a crease) keeps them.
-  if (impl_->generation > 0 && x.point == impl_->x.point) {
+  // On the surface of a non-convex solid, the culling depends on the normal too.
+  if (impl_->generation > 0 && x.point == impl_->x.point && on_face == impl_->on_face &&
+      (x.normal == impl_->x.normal || !impl_->vis->culler().on_closed_solid(x.point))) {
     impl_->x = x;
     return;
   }
   impl_->x = x;
+  impl_->on_face = on_face;
   impl_->receiver_set = false;  // the culler's receiver is set on first need
   impl_->volumes.start(x.point);
   impl_->arena_corners.clear();
@@ -441,7 +445,7 @@ double PointVisibility::visible(int patch, const Vec3* b, int nb, const Vec3& no
     if (m.occluders.empty()) return unoccluded;
     unshadowed = false;
     return m.vis->point_to_patch(m.x, b, nb, normal, unoccluded, m.occluders, rays, stream, tally,
-                                 /*narrow=*/true);  // culled from the point itself
+                                 /*narrow=*/true, m.on_face);  // culled from the point itself
   };
   if (m.vis->method() == VisibilityMethod::Rays || t < 0 || m.grouped.tile_corner_count(t) != 4 || nb < 3 || nb > 4)
     return by_patch();

@@ -208,8 +208,8 @@ int ShaftCuller::build(int first, int count) {
   return id;
 }
 
-void ShaftCuller::occluders(const Vec3* a, int na, const Vec3* b, int nb, std::vector<int>& out,
-                            bool drop_hidden) const {
+void ShaftCuller::occluders(const Vec3* a, int na, const Vec3* b, int nb, std::vector<int>& out, bool drop_hidden,
+                            int on_face) const {
   out.clear();
   if (nodes_.empty()) return;
   if (na + nb > kMaxShaftPoints) throw std::invalid_argument("ShaftCuller: a shaft of more than 24 points");
@@ -220,8 +220,8 @@ void ShaftCuller::occluders(const Vec3* a, int na, const Vec3* b, int nb, std::v
   // search).
   thread_local std::vector<signed char> outside_state;
   thread_local std::vector<int> touched;
-  if (drop_hidden) outside_state.resize(solids_.size(), 0);
-  auto hidden = [&](int f) { return hidden_from(a[0], f, outside_state, touched); };
+  if (drop_hidden) outside_state.resize(solids_.size() + closed_solids_.size(), 0);
+  auto hidden = [&](int f) { return hidden_from(a[0], f, on_face, nullptr, outside_state, touched); };
   int stack[128];
   int top = 0;
   stack[top++] = 0;

@@ -87,9 +87,10 @@ class ShaftCuller {
   // wholly on the outer closed side of one of the hull's planes. Conservative: an occluder kept may
   // still miss the shaft (edge–edge separating axes are not tried); one left out cannot block.
   // A and B together have at most 24 points (std::invalid_argument otherwise). With
-  // `drop_hidden` (A a single point x, na = 1), drop_hidden_occluders(x, out) is applied as well,
-  // cheaply, during the search.
-  void occluders(const Vec3* a, int na, const Vec3* b, int nb, std::vector<int>& out, bool drop_hidden = false) const;
+  // `drop_hidden` (A a single point x, na = 1), drop_hidden_occluders(x, out, on_face) is applied
+  // as well, cheaply, during the search.
+  void occluders(const Vec3* a, int na, const Vec3* b, int nb, std::vector<int>& out, bool drop_hidden = false,
+                 int on_face = -1) const;
 
   // The same test over `candidates` only (sorted occluder indices), into `out` in their order: exact
   // when the candidates are the occluders of a wider shaft that contains this one (an occluder that
@@ -104,13 +105,34 @@ class ShaftCuller {
   bool blocks_every_segment(const Vec3* a, int na, const Vec3* b, int nb, int o) const;
 
   // Removes from `occluders` those that cannot add to the shadow seen from x: the occluders of a
-  // convex solid (a closed, consistently oriented component of occluders joined by shared edges,
-  // every corner on or behind every one's plane: a box) that x lies clearly behind, when x lies
-  // clearly outside the solid. Any segment from x that meets such a back occluder enters the solid
-  // through one x is in front of first, so the solid's shadow is that of its occluders toward x. A
-  // point on the solid's surface or inside it keeps every occluder.
-  void drop_hidden_occluders(const Vec3& x, std::vector<int>& occluders) const;
+  // closed solid (a closed, consistently oriented component of occluders joined by shared edges,
+  // its normals outward) that x lies clearly behind, when x lies outside the solid. Any segment
+  // from outside that meets the solid enters it through an occluder x is in front of first (at
+  // the entry the segment runs against the outward normal), so the solid's shadow is that of its
+  // occluders toward x; convexity is not needed. Outside means: for a convex solid (every corner
+  // on or behind every occluder's plane: a box), clearly in front of one of its occluders; for
+  // any other (a scanned object), clearly outside its bounding box, or an even count of clean
+  // crossings of a segment from x to beyond it (Jordan), or x inside scene face `on_face`
+  // (>= 0) when that face is part of the solid (x on its surface, its sources in front of the
+  // face). A point inside a solid, or one on its surface without `on_face` (a vertex, where a
+  // segment may start into the solid), keeps every occluder.
+  // With the receiver's `normal` (unit), a point on a solid's surface (a vertex of a scanned
+  // object) counts as outside it where every face of the solid touching x lies on or behind x's
+  // tangent plane and one faces along the normal (a convex vertex): what lies just in front of
+  // the plane there borders that face's front, so segments to sources in front start outside.
+  void drop_hidden_occluders(const Vec3& x, std::vector<int>& occluders, int on_face = -1,
+                             const Vec3* normal = nullptr) const;
+  // True when x lies on the surface of a closed solid that is not convex (within tolerance()):
+  // then what drop_hidden_occluders leaves depends on the receiver's normal as well.
+  bool on_closed_solid(const Vec3& x) const {
+    thread_local std::vector<int> touching;
+    touching_closed_solids(x, touching);
+    return !touching.empty();
+  }
   int convex_solid_count() const { return static_cast<int>(solids_.size()); }
+  // Closed solids that are not convex (see drop_hidden_occluders), and the one of occluder o (-1: none).
+  int closed_solid_count() const { return static_cast<int>(closed_solids_.size()); }
+  int closed_solid_of(int o) const { return closed_of_[size_t(o)]; }
   // The convex solid of occluder o (-1: none), a solid's occluders, and the occluder across edge k
   // (corner k to k + 1) of occluder o (-1 where the edge is not shared by exactly one other).
   int solid_of(int o) const { return solid_of_[size_t(o)]; }
@@ -128,7 +150,13 @@ class ShaftCuller {
   // True when x is clearly behind occluder o of a convex solid it is clearly outside of.
   // outside_state caches per solid whether x is outside it (0 unknown, 1 yes, 2 no); touched lists
   // the solids set, for the caller to reset.
-  bool hidden_from(const Vec3& x, int o, std::vector<signed char>& outside_state, std::vector<int>& touched) const;
+  bool hidden_from(const Vec3& x, int o, int on_face, const Vec3* normal, std::vector<signed char>& outside_state,
+                   std::vector<int>& touched) const;
+  // True when segments from x toward the front of `normal` start outside closed (non-convex)
+  // solid `solid` (drop_hidden_occluders).
+  bool outside_closed_solid(const Vec3& x, int solid, int on_face, const Vec3* normal) const;
+  // The occluders of closed, non-convex solids whose polygons x lies on (within tol_).
+  void touching_closed_solids(const Vec3& x, std::vector<int>& out) const;
   std::vector<Polygon> scene_faces_;                // per scene face: its polygon
   std::vector<Polygon> occluders_;                  // per occluder: its convex polygon
   std::vector<std::vector<int>> occluder_faces_;    // per occluder: its scene faces
@@ -136,6 +164,9 @@ class ShaftCuller {
   std::vector<int> occluder_of_face_;               // per scene face: its occluder
   std::vector<std::vector<int>> solids_;            // occluders of each convex solid
   std::vector<int> solid_of_;                       // per occluder: its convex solid, or -1
+  std::vector<std::vector<int>> closed_solids_;     // occluders of each closed solid that is not convex
+  std::vector<Eigen::AlignedBox3d> closed_boxes_;   // per closed solid: its bounding box
+  std::vector<int> closed_of_;                      // per occluder: its closed, non-convex solid, or -1
   std::vector<std::vector<int>> neighbours_;        // per occluder and edge: the occluder across it, or -1
   std::vector<Vec3> normals_;                       // per occluder: unit plane normal
   std::vector<Eigen::AlignedBox3d> boxes_;          // per occluder
@@ -331,7 +362,10 @@ class PointVisibility {
   // The point of the following queries (a surface point with its normal and approach). The
   // culling and the tiles' clipping depend on the point only, so a receiver at the same point as
   // the previous one (another normal, as at a crease) reuses them: give such receivers in a row.
-  void set_receiver(const Receiver& x);
+  // on_face: the scene face whose interior holds the point (a patch's quadrature point), or -1
+  // (a vertex, or not known): lets the back occluders of a closed solid the point lies on go
+  // (ShaftCuller::drop_hidden_occluders).
+  void set_receiver(const Receiver& x, int on_face = -1);
   // F_vis(dA_x -> P) for patch `patch` of the mesh (corners b, nb; unit normal), given
   // `unoccluded` = F(dA_x -> P). `unshadowed` is set when no occluder shadows any of it (the
   // result is then `unoccluded` itself). Ray mode casts `rays` segments (kAdaptiveRays: as
@@ -408,10 +442,11 @@ class Visibility {
   // `narrow` says the occluders are already those of x's own shaft. Ray mode
   // casts `rays` segments (kAdaptiveRays: as RaySampling asks; added to `tally` with the
   // result's estimated variance) from x lifted off its surface (along receiver.approach when
-  // set, else along the normal); exact mode ignores rays, stream and tally.
+  // set, else along the normal); exact mode ignores rays, stream and tally. on_face: the scene
+  // face whose interior holds x, or -1 (ShaftCuller::drop_hidden_occluders).
   double point_to_patch(const Receiver& receiver, const Vec3* source, int n, const Vec3& source_normal,
                         double unoccluded, const std::vector<int>& occluders, int rays, uint64_t stream,
-                        RayTally& tally, bool narrow = false) const;
+                        RayTally& tally, bool narrow = false, int on_face = -1) const;
 
  private:
   VisibilityMethod method_;
