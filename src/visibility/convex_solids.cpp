@@ -114,6 +114,12 @@ void ShaftCuller::find_convex_solids() {
     closed_boxes_.push_back(box);
     for (int f : faces) closed_of_[size_t(f)] = id;
   }
+  // One index per occluder for drop_hidden_occluders' states: convex solids, then the others.
+  solid_state_of_.assign(size_t(n), -1);
+  for (int f = 0; f < n; ++f)
+    if (solid_of_[size_t(f)] >= 0) solid_state_of_[size_t(f)] = solid_of_[size_t(f)];
+    else if (closed_of_[size_t(f)] >= 0)
+      solid_state_of_[size_t(f)] = static_cast<int>(solids_.size()) + closed_of_[size_t(f)];
 }
 
 void ShaftCuller::touching_closed_solids(const Vec3& x, std::vector<int>& out) const {
@@ -203,18 +209,17 @@ bool ShaftCuller::outside_closed_solid(const Vec3& x, int solid, int on_face, co
 
 bool ShaftCuller::hidden_from(const Vec3& x, int f, int on_face, const Vec3* normal,
                               std::vector<signed char>& outside_state, std::vector<int>& touched) const {
-  const int convex = solid_of_[size_t(f)], closed = closed_of_[size_t(f)];
+  const int index = solid_state_of_[size_t(f)];
   // Signed distance of x in front of occluder g's plane.
   auto height = [&](int g) { return normals_[size_t(g)].dot(x - occluders_[size_t(g)][0]); };
-  if ((convex < 0 && closed < 0) || !(height(f) < -tol_)) return false;
-  // States: convex solids first, then the other closed ones.
-  const int index = convex >= 0 ? convex : int(solids_.size()) + closed;
+  if (index < 0 || !(height(f) < -tol_)) return false;
   signed char& state = outside_state[size_t(index)];
   if (state == 0) {
+    const int convex_count = static_cast<int>(solids_.size());
     bool outside = false;
-    if (convex >= 0)
-      for (int g : solids_[size_t(convex)]) outside = outside || height(g) > tol_;
-    else outside = outside_closed_solid(x, closed, on_face, normal);
+    if (index < convex_count)
+      for (int g : solids_[size_t(index)]) outside = outside || height(g) > tol_;
+    else outside = outside_closed_solid(x, index - convex_count, on_face, normal);
     state = outside ? 1 : 2;
     touched.push_back(index);
   }

@@ -167,6 +167,7 @@ class ShaftCuller {
   std::vector<std::vector<int>> closed_solids_;     // occluders of each closed solid that is not convex
   std::vector<Eigen::AlignedBox3d> closed_boxes_;   // per closed solid: its bounding box
   std::vector<int> closed_of_;                      // per occluder: its closed, non-convex solid, or -1
+  std::vector<int> solid_state_of_;                 // per occluder: its solid's index among both kinds, or -1
   std::vector<std::vector<int>> neighbours_;        // per occluder and edge: the occluder across it, or -1
   std::vector<Vec3> normals_;                       // per occluder: unit plane normal
   std::vector<Eigen::AlignedBox3d> boxes_;          // per occluder
