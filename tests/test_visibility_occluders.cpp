@@ -323,3 +323,32 @@ TEST(VisibilityOccluders, AClosedRoomIsNoSolid) {
   EXPECT_EQ(culler.convex_solid_count(), 0);
   EXPECT_EQ(culler.closed_solid_count(), 0);
 }
+
+// The tree search prunes whole subtrees by a shaft's planes; what it finds is what testing every
+// occluder finds (occluders_among over all of them, no tree), for point shafts and face shafts.
+TEST(VisibilityOccluders, TheTreeFindsWhatTestingEveryOccluderFinds) {
+  Scene s = builders::unit_cube();
+  builders::add_bumpy_sphere(s, {0.5, 0.45, 0.4}, 0.25, 14, 18, 0.15);
+  builders::add_box(s, {0.1, 0.1, 0.0}, {0.25, 0.2, 0.6});
+  const ShaftCuller culler(s);
+  const std::vector<int> everything = all(culler.occluder_count());
+  std::vector<int> by_tree, by_list;
+  int found = 0;
+  for (int i = 0; i < 300; ++i) {
+    // Points on the room's faces and on the object, shafts to every 7th face.
+    const Polygon w = s.face_polygon(i % culler.scene_face_count());
+    const Vec3 x = polygon_centroid(w);
+    for (int f = (i * 13) % 7; f < culler.scene_face_count(); f += 7) {
+      const Polygon& b = culler.scene_faces()[size_t(f)];
+      culler.occluders(&x, 1, b.data(), int(b.size()), by_tree);
+      culler.occluders_among(&x, 1, b.data(), int(b.size()), everything, by_list);
+      ASSERT_EQ(by_tree, by_list) << "point " << i << " face " << f;
+      found += !by_tree.empty();
+      // And the shaft of the two faces (pruned by its planes once a candidate has built them).
+      culler.occluders(w.data(), int(w.size()), b.data(), int(b.size()), by_tree);
+      culler.occluders_among(w.data(), int(w.size()), b.data(), int(b.size()), everything, by_list);
+      ASSERT_EQ(by_tree, by_list) << "face " << i << " face " << f;
+    }
+  }
+  EXPECT_GT(found, 1000);
+}

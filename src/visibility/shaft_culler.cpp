@@ -34,6 +34,7 @@ class Shaft {
     box_.max().array() += tol;
   }
   const Eigen::AlignedBox3d& box() const { return box_; }
+  bool has_planes() const { return have_planes_; }
 
   // True when occluder w (unit plane normal `normal`) cannot meet the open shaft: every corner of
   // A and B on one closed side of its plane (no open segment crosses it; this leaves out the
@@ -57,6 +58,21 @@ class Shaft {
           break;
         }
       if (outside) return true;
+    }
+    return false;
+  }
+
+  // True when box b lies wholly on the outer side of one hull plane (within the tolerance, as
+  // misses() counts a polygon's corners): no occluder inside it can meet the shaft, and misses()
+  // would leave out each of them. Builds the hull's planes on first need.
+  bool box_outside(const Eigen::AlignedBox3d& b) {
+    if (!have_planes_) build_planes();
+    for (int i = 0; i < plane_count_; ++i) {
+      const Plane& p = planes_[i];
+      // The box's corner least outside the plane.
+      const Vec3 c(p.m.x() >= 0 ? b.min().x() : b.max().x(), p.m.y() >= 0 ? b.min().y() : b.max().y(),
+                   p.m.z() >= 0 ? b.min().z() : b.max().z());
+      if (p.m.dot(c) - p.d >= -tol_) return true;
     }
     return false;
   }
@@ -225,9 +241,14 @@ void ShaftCuller::occluders(const Vec3* a, int na, const Vec3* b, int nb, std::v
   int stack[128];
   int top = 0;
   stack[top++] = 0;
+  // A point's shaft is a pyramid whose few planes cost little to build: its planes prune whole
+  // subtrees that its bounding box alone does not (a thin shaft across the room to a small face).
+  // Other shafts prune so once a candidate has needed their planes.
+  const bool prune_by_planes = na == 1;
   while (top > 0) {
     const Node& node = nodes_[stack[--top]];
     if (!boxes_meet(node.box, shaft.box())) continue;
+    if ((prune_by_planes || shaft.has_planes()) && shaft.box_outside(node.box)) continue;
     if (node.left < 0) {
       for (int k = node.first; k < node.first + node.count; ++k) {
         const int f = order_[k];

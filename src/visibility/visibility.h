@@ -17,7 +17,7 @@
 //     An occluder that does not meet it cannot block any segment between them, so a pair whose
 //     shaft meets none needs no visibility work at all. Candidates come from an AABB tree over
 //     the occluders' bounding boxes, so a query costs O(log N_occluders + candidates), not
-//     O(N_occluders).
+//     O(N_occluders); a point's shaft also prunes the subtrees outside one of its planes.
 //  2. Ray casting (Embree 3, over the scene faces): V(x, P) = Σ_k w_k v_k / Σ_k w_k over K segments from x to
 //     stratified points y_k on P, v_k = 1 if no face blocks the segment, w_k = cos θx cos θy / r²
 //     the form-factor integrand at y_k (Wallace, Elmquist & Haines 1989 weight each ray by its
