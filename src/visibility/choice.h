@@ -25,7 +25,7 @@ enum class VisibilityMode { Auto, None, Rays, Exact };
 // with m the mean count of occluders that can shadow the receiver face's centroid from the source
 // face (ShaftCuller::occluders of the point's shaft, less the back occluders of closed solids the
 // point is outside of: what the fill and the gather clip), over the sampled face pairs that have
-// any. Measured on the project's 2-core VM (docs/performance.md "How auto chooses"): 1.7 µs per
+// any. Measured on the project's 2-core VM (docs/theory.md "How auto chooses"): 1.7 µs per
 // exactly clipped point on the 1,666-face room, where m = 1.78, and 0.26 µs per single ray on
 // the same room. Packets of 8 (RayVisibility::blocked_from) halved the time per ray on the
 // Cornell box (0.155 -> 0.076 core-µs), but the model keeps 0.26: with 0.13 it picked rays for
