@@ -23,7 +23,7 @@ namespace {
 
 struct ViewFactorArgs {
   std::string scene, output, by = "group", format = "csv", enforce = "none", visibility = "auto", points, points_output,
-                             max_memory, matrix = "auto", matrix_precision = "auto";
+                             max_memory, matrix = "auto", matrix_precision = "auto", stream = "auto";
   double threshold = 0.0, max_edge = 0.0, accuracy = 1e-7, occluded_accuracy = photometria::kDefaultOccludedAccuracy;
   std::string rays = "auto";
   int threads = 0;
@@ -56,6 +56,8 @@ pm::ViewFactorJob job_of(const ViewFactorArgs& a) {
   job.flip_normals = a.flip_normals;
   job.output = a.output;
   job.threshold = a.threshold;
+  if (!pm::row_streaming_from_name(a.stream, job.stream))
+    pm::throw_bad_input("--stream: unknown mode '" + a.stream + "' (auto, yes or no)");
   job.points = a.points;
   job.points_output = a.points_output;
   job.on_load_warning = [](const std::string& source, const std::string& w) {
@@ -90,6 +92,9 @@ Command add_viewfactors_command(CLI::App& app) {
   sub->add_option("--threshold", a->threshold,
                   "Sparse output: drop factors below this (the summary reports the dropped row sums)")
       ->check(options::real_in(0, 1));
+  sub->add_option("--stream", a->stream,
+                  "Sparse output by face or patch: write rows while they are filled, never holding the matrix: auto "
+                  "(default: when the matrix would not fit the memory limit), yes or no");
   sub->add_option("--enforce", a->enforce, "none (default), reciprocity, closure or both (closed enclosures)");
   sub->add_option("--points", a->points,
                   "Points with normals (.json or .csv): factors from each point to each surface");

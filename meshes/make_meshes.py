@@ -4,6 +4,9 @@
     python3 meshes/make_meshes.py [--cornell-src DIR]
     python3 meshes/make_meshes.py --many-faces H OUT.vs3
     python3 meshes/make_meshes.py --scanned-object OUT.obj
+    python3 meshes/make_meshes.py --street-canyons H OUT.vs3
+    python3 meshes/make_meshes.py --street-canyon H OUT.vs3
+    python3 meshes/make_meshes.py --meshed-cube N OUT.vs3
 
 The second form writes room_with_table as a View3D input instead (nothing else): every quad of
 the room, the light and the table tessellated into quads of edge at most H metres, each quad its
@@ -14,9 +17,18 @@ The third form writes the Cornell box (meshes/cornell_box.obj, its materials) wi
 object standing on its floor in front of the boxes: a closed, bumpy sphere of 4,000 triangles,
 every triangle its own face and plane (the "scanned object" benchmark of `solve`).
 
-Conventions of every generated file: metres, y up, every face wound counter-clockwise seen from
-its front (the side that emits and receives light), so its right-hand (Newell) normal points to
-the front. Rooms face inward, furniture faces outward. The script checks each winding it writes.
+The fourth form writes street canyons as a View3D input: 3 x 3 buildings (20 x 20 x 15 m) on
+ground with 10 m streets between and around them, open to the sky, ground, walls and roofs cut
+into quads of edge at most H metres, each its own surface (H = 1: 20,800 surfaces; H = 0.32:
+207,085). The fifth writes one street canyon, 840 m long, 20 m wide between facades 20 m high, as
+a View3D input the same way (H = 1.6: 20,475 surfaces; H = 0.5: 201,600). Both are the "huge
+sparse matrices" benchmarks of `viewfactors --format sparse`. The last writes the unit cube room
+with each wall cut into N x N quads, each its own surface (N = 32: 6,144; the output-speed
+benchmark of `viewfactors`).
+
+Conventions of every generated file: metres, y up (z up in the street canyons), every face
+wound counter-clockwise seen from its front (the side that emits and receives light), so its
+right-hand (Newell) normal points to the front. Rooms face inward, furniture faces outward. The script checks each winding it writes.
 
 cornell_box.obj/.mtl are copied from the public-domain Williams College data set
 (CornellBox-Original.*) with the mtllib line renamed; the copy is only refreshed when the source
@@ -186,31 +198,103 @@ def tessellate(quad, h):
     return [[at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)] for j in range(nv) for i in range(nu)]
 
 
+def write_vs3(path, title, surfaces):
+    """A View3D input (F 3) of `surfaces`, (quad, name prefix) pairs, each quad its own surface
+    named prefix + its 1-based number; corners shared by quads are written once."""
+    index, vertices = {}, []
+    with open(path, "w") as f:
+        f.write(f"T {title}\nC encl=0 list=0\nF 3\n")
+        records = []
+        for k, (quad, prefix) in enumerate(surfaces, 1):
+            ids = []
+            for p in quad:
+                p = tuple(round(x, 9) + 0.0 for x in p)
+                if p not in index:
+                    index[p] = len(vertices) + 1
+                    vertices.append(p)
+                ids.append(index[p])
+            records.append(f"S {k} {' '.join(map(str, ids))} 0 0 0 {prefix}{k}\n")
+        for k, p in enumerate(vertices, 1):
+            f.write(f"V {k} {p[0]:.9g} {p[1]:.9g} {p[2]:.9g}\n")
+        f.writelines(records)
+        f.write("End of data\n")
+    print(f"{path}: {len(vertices)} vertices, {len(surfaces)} surfaces")
+
+
 def write_many_faces_room(h, path):
     """room_with_table tessellated into quads of edge <= h, one View3D surface each (F 3)."""
     obj = room_with_table()
-    index, vertices, surfaces = {}, [], []
+    surfaces = []
     for group, _, faces in obj.blocks:
         for face in faces:
             quad = [obj.vertices[k - 1] for k in face]
-            for q in tessellate(quad, h):
-                ids = []
-                for p in q:
-                    p = tuple(round(x, 9) + 0.0 for x in p)
-                    if p not in index:
-                        index[p] = len(vertices) + 1
-                        vertices.append(p)
-                    ids.append(index[p])
-                surfaces.append((ids, group))
-    with open(path, "w") as f:
-        f.write(f"T room_with_table, quads of edge <= {h:g} m, each its own surface (meshes/make_meshes.py)\n")
-        f.write("C encl=0 list=0\nF 3\n")
-        for k, p in enumerate(vertices, 1):
-            f.write(f"V {k} {p[0]:.9g} {p[1]:.9g} {p[2]:.9g}\n")
-        for k, (ids, group) in enumerate(surfaces, 1):
-            f.write(f"S {k} {' '.join(map(str, ids))} 0 0 0 {group}{k}\n")
-        f.write("End of data\n")
-    print(f"{path}: {len(vertices)} vertices, {len(surfaces)} surfaces")
+            surfaces += [(q, group) for q in tessellate(quad, h)]
+    write_vs3(path, f"room_with_table, quads of edge <= {h:g} m, each its own surface (meshes/make_meshes.py)",
+              surfaces)
+
+
+def street_canyons(h, blocks=3, size=20.0, street=10.0, height=15.0):
+    """Urban street canyons as uDALES and other urban-climate codes model them: `blocks` x `blocks`
+    buildings of size x size x height metres on a square of ground, streets of width `street`
+    between and around them (the open sky above: no roof over the scene). Z up. Ground, walls and
+    roofs are cut into quads of edge <= h, facing out of the buildings and up from the ground.
+    Returns (quad, name prefix) pairs."""
+    breaks = [0.0]
+    for _ in range(blocks):
+        breaks += [breaks[-1] + street, breaks[-1] + street + size]
+    breaks.append(breaks[-1] + street)
+    surfaces = []
+
+    def add(quad, prefix, normal):
+        n = newell(quad)
+        assert dot(n, normal) > 0, (prefix, quad)
+        surfaces.extend((q, prefix) for q in tessellate(quad, h))
+
+    up = (0.0, 0.0, 1.0)
+    for a in range(len(breaks) - 1):
+        for b in range(len(breaks) - 1):
+            x0, x1, y0, y1 = breaks[a], breaks[a + 1], breaks[b], breaks[b + 1]
+            if a % 2 == 1 and b % 2 == 1:  # a building's footprint: walls and roof, no floor
+                add([(x0, y0, height), (x1, y0, height), (x1, y1, height), (x0, y1, height)], "roof", up)
+                add([(x0, y0, 0), (x1, y0, 0), (x1, y0, height), (x0, y0, height)], "wall", (0, -1, 0))
+                add([(x1, y1, 0), (x0, y1, 0), (x0, y1, height), (x1, y1, height)], "wall", (0, 1, 0))
+                add([(x1, y0, 0), (x1, y1, 0), (x1, y1, height), (x1, y0, height)], "wall", (1, 0, 0))
+                add([(x0, y1, 0), (x0, y0, 0), (x0, y0, height), (x0, y1, height)], "wall", (-1, 0, 0))
+            else:
+                add([(x0, y0, 0), (x1, y0, 0), (x1, y1, 0), (x0, y1, 0)], "ground", up)
+    return surfaces
+
+
+def street_canyon(h, length=840.0, width=20.0, height=20.0):
+    """One long street canyon (Oke's idealised canyon, aspect ratio height / width = 1): the street
+    and the two facades facing it, open to the sky and at both ends, x along the street, z up,
+    cut into quads of edge <= h. Nothing in it can block anything (the street and both facades
+    lie in front of each other's planes)."""
+    surfaces = []
+    for quad, prefix, normal in (
+            ([(0, 0, 0), (length, 0, 0), (length, width, 0), (0, width, 0)], "street", (0, 0, 1)),
+            ([(0, 0, 0), (0, 0, height), (length, 0, height), (length, 0, 0)], "facade", (0, 1, 0)),
+            ([(length, width, 0), (length, width, height), (0, width, height), (0, width, 0)], "facade",
+             (0, -1, 0))):
+        assert dot(newell(quad), normal) > 0, (prefix, quad)
+        surfaces.extend((q, prefix) for q in tessellate(quad, h))
+    return surfaces
+
+
+def write_street_canyon(h, path):
+    write_vs3(path, f"a street canyon, 840 m long, 20 m wide, facades 20 m high, quads of edge <= {h:g} m "
+              "(meshes/make_meshes.py)", street_canyon(h))
+
+
+def write_meshed_cube(n, path):
+    """The unit cube room (inward) with every wall cut into n x n quads, one surface each."""
+    surfaces = [(q, "wall") for quad in box_quads((0, 0, 0), (1, 1, 1), inward=True) for q in tessellate(quad, 1.0 / n)]
+    write_vs3(path, f"unit cube, {n} x {n} quads per wall, each its own surface (meshes/make_meshes.py)", surfaces)
+
+
+def write_street_canyons(h, path):
+    write_vs3(path, f"street canyons, 3 x 3 buildings 20 x 20 x 15 m, streets 10 m, quads of edge <= {h:g} m "
+              "(meshes/make_meshes.py)", street_canyons(h))
 
 
 def two_squares():
@@ -292,13 +376,21 @@ def main():
     parser.add_argument("--cornell-src", default=os.path.join(HERE, "..", "..", "shared", "scenes", "cornell_box"))
     parser.add_argument("--many-faces", nargs=2, metavar=("H", "OUT"), help="write the many-faces room as .vs3")
     parser.add_argument("--scanned-object", metavar="OUT", help="write the Cornell box with a 4,000-triangle object")
+    parser.add_argument("--street-canyons", nargs=2, metavar=("H", "OUT"), help="write the street canyons as .vs3")
+    parser.add_argument("--meshed-cube", nargs=2, metavar=("N", "OUT"), help="write the unit cube, N x N per wall, as .vs3")
+    parser.add_argument("--street-canyon", nargs=2, metavar=("H", "OUT"), help="write one long street canyon as .vs3")
     args = parser.parse_args()
     if args.scanned_object:
         write_scanned_object(args.scanned_object)
         return
-    if args.many_faces:
-        write_many_faces_room(float(args.many_faces[0]), args.many_faces[1])
-        return
+    # The View3D inputs: (option, how its first value is read, writer).
+    for given, size, write in ((args.meshed_cube, int, write_meshed_cube),
+                               (args.street_canyon, float, write_street_canyon),
+                               (args.street_canyons, float, write_street_canyons),
+                               (args.many_faces, float, write_many_faces_room)):
+        if given:
+            write(size(given[0]), given[1])
+            return
     for obj in (furnace_cube(), room_with_table(), two_squares()):
         obj.write()
         print(f"{obj.name}: {len(obj.vertices)} vertices, {sum(len(b[2]) for b in obj.blocks)} faces")

@@ -255,6 +255,20 @@ TEST_P(WriteFaults, ViewFactorsKeepTheEarlierMatrix) {
   expect_io_failure(o, "'" + out.string() + "'", c.dir(), before);
 }
 
+// Sparse rows streamed while they are filled (the cube at 600 patches: the "# surface" lines take
+// 21 KB, the rows over 2 MB) stop at the first write that fails, in the middle of the fill.
+TEST_P(WriteFaults, ViewFactorsStreamedStopAtTheFirstFailedWrite) {
+  const Cramped c(GetParam(), 64 << 10);
+  REQUIRE_FAULT(c);
+  const fs::path out = c.dir() / "vf.sparse";
+  write(out, "an earlier matrix\n");
+  const auto before = contents(c.dir());
+  const Outcome o = run({"viewfactors", kMeshes + "furnace_cube.obj", "--by", "patch", "--max-edge", "0.1", "--format",
+                         "sparse", "--stream", "yes", "--quiet", "-o", out.string()},
+                        c.limits());
+  expect_io_failure(o, "'" + out.string() + "'", c.dir(), before);
+}
+
 // A summary on standard output that does not reach the disk is an error too (formfactor prints
 // only there: 300 lines, 30 KB, into 4 KiB).
 TEST_P(WriteFaults, FormFactorSeesItsStandardOutputFail) {

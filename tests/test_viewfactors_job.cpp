@@ -6,10 +6,12 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "scratch_dir.h"
@@ -216,6 +218,120 @@ TEST(ViewFactorJob, SparseEnforcedWithPoints) {
   EXPECT_NE(lines[9].find(" below 0.001 dropped"), std::string::npos) << lines[9];
   EXPECT_EQ(lines[10], "  point factors: 2 points -> " + r.job.points_output);
   EXPECT_EQ(lines[11].rfind("  time ", 0), 0u);
+}
+
+// Sparse rows written while they are filled (--stream): the same bytes and checks as the stored
+// matrix's, save the reciprocity error, which needs both triangles at once.
+TEST(ViewFactorJob, StreamedSparseRowsAreTheStoredOnesByteForByte) {
+  const fs::path dir = test_scratch::fresh_dir("photometria_vfjob_");
+  ViewFactorJob job = cornell_job(dir);
+  job.level = AggregateLevel::Patch;
+  job.format = ViewFactorFormat::Sparse;
+  job.threshold = 1e-4;
+  job.fill.patching.max_edge = 0.45;
+  job.fill.threads = 2;  // rows arrive out of order
+  job.output = (dir / "stored.txt").string();
+  job.stream = RowStreaming::No;
+  const ViewFactorJobResult stored = run_view_factor_job(job);
+  job.output = (dir / "streamed.txt").string();
+  job.stream = RowStreaming::Yes;
+  const ViewFactorJobResult streamed = run_view_factor_job(job);
+
+  ASSERT_GT(streamed.patches, 100);
+  EXPECT_FALSE(stored.streamed);
+  EXPECT_EQ(stored.stream_reason, "requested (--stream no)");
+  EXPECT_TRUE(streamed.streamed);
+  EXPECT_EQ(streamed.stream_reason, "requested (--stream yes)");
+  EXPECT_EQ(streamed.F.size(), 0);
+  EXPECT_EQ(streamed.matrix_storage, "streamed");
+  EXPECT_EQ(streamed.memory.matrix_bytes, 0.0);
+  EXPECT_EQ(streamed.memory.output_bytes, 0.0);
+  EXPECT_LT(streamed.memory.estimated_bytes, stored.memory.estimated_bytes / 4);
+
+  std::ifstream a(dir / "stored.txt"), b(dir / "streamed.txt");
+  const std::string stored_text((std::istreambuf_iterator<char>(a)), std::istreambuf_iterator<char>());
+  const std::string streamed_text((std::istreambuf_iterator<char>(b)), std::istreambuf_iterator<char>());
+  EXPECT_GT(stored_text.size(), 100000u);
+  EXPECT_TRUE(stored_text == streamed_text) << "the streamed file differs from the stored one";
+
+  EXPECT_EQ(streamed.sparse.written, stored.sparse.written);
+  EXPECT_EQ(streamed.sparse.dropped, stored.sparse.dropped);
+  EXPECT_GT(streamed.sparse.dropped, 0);
+  EXPECT_EQ(streamed.sparse.worst_row, stored.sparse.worst_row);
+  EXPECT_EQ(streamed.sparse.max_dropped_row_sum, stored.sparse.max_dropped_row_sum);
+  EXPECT_EQ(streamed.sparse.total_dropped, stored.sparse.total_dropped);
+  EXPECT_EQ(streamed.checks.min_row_sum, stored.checks.min_row_sum);
+  EXPECT_EQ(streamed.checks.max_row_sum, stored.checks.max_row_sum);
+  EXPECT_EQ(streamed.checks.mean_row_sum, stored.checks.mean_row_sum);
+  EXPECT_EQ(streamed.checks.worst_row, stored.checks.worst_row);
+  EXPECT_EQ(streamed.checks.min_entry, stored.checks.min_entry);
+  EXPECT_EQ(streamed.checks.max_entry, stored.checks.max_entry);
+  EXPECT_TRUE(stored.checks.reciprocity_checked);
+  EXPECT_GT(stored.checks.reciprocity_error, 0.0);
+  EXPECT_FALSE(streamed.checks.reciprocity_checked);
+
+  const nlohmann::json j = viewfactor_summary_json(streamed);
+  EXPECT_TRUE(j["checks"]["reciprocity_error_max"].is_null());
+  EXPECT_EQ(j["sparse"]["streamed"], true);
+  EXPECT_EQ(j["matrix"]["storage"], "streamed");
+  EXPECT_EQ(viewfactor_summary_json(stored)["sparse"]["streamed"], false);
+  const std::string text = viewfactor_summary_text(streamed);
+  EXPECT_NE(text.find("  reciprocity error max: not checked (the rows were streamed"), std::string::npos) << text;
+  EXPECT_NE(text.find("; rows streamed (requested (--stream yes))"), std::string::npos) << text;
+}
+
+// Auto streams only when the stored matrix would not fit the memory limit; `no` is then refused
+// by the memory check, and `yes` where the output needs the whole matrix.
+TEST(ViewFactorJob, StreamingAutoFollowsTheMemoryLimit) {
+  const fs::path dir = test_scratch::fresh_dir("photometria_vfjob_");
+  ViewFactorJob job = cornell_job(dir);
+  job.scene = std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/furnace_cube.obj";  // convex: a quick fill
+  job.level = AggregateLevel::Patch;
+  job.format = ViewFactorFormat::Sparse;
+  job.fill.patching.max_edge = 0.1;
+  job.fill.threads = 2;
+  const ViewFactorJobResult roomy = run_view_factor_job(job);
+  EXPECT_FALSE(roomy.streamed);
+  EXPECT_EQ(roomy.stream_reason, "auto: the matrix fits the memory limit, stored");
+  // N = 600 patches: the stored matrix and its copy take about 5.8 MB, streamed rows < 1 MB.
+  ASSERT_EQ(roomy.patches, 600);
+  job.fill.max_memory_bytes = 4 << 20;
+  const ViewFactorJobResult tight = run_view_factor_job(job);
+  EXPECT_TRUE(tight.streamed);
+  EXPECT_EQ(tight.stream_reason.rfind("auto: the stored matrix and its output copy need an estimated ", 0), 0u)
+      << tight.stream_reason;
+  EXPECT_LE(tight.memory.estimated_bytes, job.fill.max_memory_bytes);
+  EXPECT_EQ(tight.sparse.written, roomy.sparse.written);
+  EXPECT_EQ(tight.checks.max_row_sum, roomy.checks.max_row_sum);
+
+  job.stream = RowStreaming::No;
+  try {
+    run_view_factor_job(job);
+    ADD_FAILURE() << "a matrix over --max-memory was stored";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::BadInput);
+    EXPECT_NE(std::string(e.what()).find("but --max-memory is 4 MiB"), std::string::npos) << e.what();
+  }
+  job.stream = RowStreaming::Yes;
+  job.fill.max_memory_bytes = 0;
+  for (const auto& [format, level, enforcement, why] :
+       {std::tuple{ViewFactorFormat::Csv, AggregateLevel::Patch, Enforcement::None,
+                   "the output needs the whole matrix"},
+        std::tuple{ViewFactorFormat::Sparse, AggregateLevel::Group, Enforcement::None, "--by group sums rows"},
+        std::tuple{ViewFactorFormat::Sparse, AggregateLevel::Face, Enforcement::None, "a face is split"},
+        std::tuple{ViewFactorFormat::Sparse, AggregateLevel::Patch, Enforcement::Both, "--enforce needs"}}) {
+    job.format = format;
+    job.level = level;
+    job.enforcement = enforcement;
+    try {
+      run_view_factor_job(job);
+      ADD_FAILURE() << "streamed: " << why;
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::BadInput);
+      EXPECT_EQ(std::string(e.what()).rfind(std::string("--stream yes: ") + why, 0), 0u) << e.what();
+    }
+  }
+  EXPECT_EQ(files_in(dir), std::set<std::string>{"vf.csv"});  // from the runs that worked
 }
 
 TEST(ViewFactorJob, PointsOutputCannotBeTheMatrixOutput) {

@@ -15,6 +15,31 @@ TEST(Visibility, ConvexRoomNeedsNone) {
   EXPECT_NE(why.find("behind"), std::string::npos);
 }
 
+// Faces meshed from one surface come one after another and share a test; a face in a parallel
+// plane at another height does not.
+TEST(Visibility, ConvexityIsTestedPerPlaneOfConsecutiveFaces) {
+  // A street canyon: the street and two facing walls, each cut into 8 strips (x along it).
+  Scene canyon;
+  canyon.source = "canyon";
+  const auto quad = [&](Vec3 a, Vec3 b, Vec3 c, Vec3 d) {
+    const int k = static_cast<int>(canyon.vertices.size());
+    canyon.vertices.insert(canyon.vertices.end(), {a, b, c, d});
+    canyon.faces.push_back({{k, k + 1, k + 2, k + 3}, 0, 0, static_cast<int>(canyon.faces.size())});
+  };
+  for (int i = 0; i < 8; ++i) quad(Vec3(i, 0, 0), Vec3(i + 1, 0, 0), Vec3(i + 1, 2, 0), Vec3(i, 2, 0));
+  for (int i = 0; i < 8; ++i) quad(Vec3(i, 0, 0), Vec3(i, 0, 2), Vec3(i + 1, 0, 2), Vec3(i + 1, 0, 0));
+  for (int i = 0; i < 8; ++i) quad(Vec3(i + 1, 2, 0), Vec3(i + 1, 2, 2), Vec3(i, 2, 2), Vec3(i, 2, 0));
+  canyon.materials = builders::unit_cube().materials;
+  canyon.groups = {"canyon"};
+  std::string why;
+  EXPECT_TRUE(scene_needs_no_visibility(canyon, &why)) << why;
+  // The street's last strip raised by 1 mm: the strips before it lie behind its plane.
+  Scene step = canyon;
+  for (int k = 28; k < 32; ++k) step.vertices[size_t(k)].z() = 1e-3;
+  EXPECT_FALSE(scene_needs_no_visibility(step, &why));
+  EXPECT_EQ(why.rfind("face 7 has vertex 0 behind its plane", 0), 0u) << why;
+}
+
 TEST(Visibility, SegmentsThroughABoxAreBlockedFromBothSides) {
   Scene room = builders::unit_cube();
   builders::add_box(room, Vec3(0.4, 0.4, 0.4), Vec3(0.6, 0.6, 0.6));

@@ -432,7 +432,10 @@ class RowFill {
 
 FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options, FillStats& stats) {
   const int n = mesh.size();
-  FormFactors F(n, options.layout == MatrixLayout::Sparse ? MatrixLayout::Sparse : MatrixLayout::Dense,
+  const bool sink = static_cast<bool>(options.row_sink);
+  // Streamed rows: an empty sparse matrix, whose rows give no storage to fill in place.
+  FormFactors F(sink ? 0 : n,
+                sink || options.layout == MatrixLayout::Sparse ? MatrixLayout::Sparse : MatrixLayout::Dense,
                 options.precision);
   const double tol = plane_tolerance(mesh);
   const Visibility* vis = options.visibility;
@@ -466,15 +469,17 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
       for (int t = 0; t < omp_get_max_threads(); ++t) occluded.emplace_back(*vis, mesh);
   }
   double max_row_error = 0.0, max_ray_error = 0.0;
+  std::atomic<bool> stopped{false};
 
 #pragma omp parallel for schedule(dynamic, 4) reduction(merge     \
                                                         : counts) \
     reduction(max                                                 \
               : max_point_sum, max_row_error, max_ray_error)
   for (int i = 0; i < n; ++i) {
+    if (stopped) continue;  // the row sink asked to stop
     // F_i,·: written in place into a dense double matrix (zero until now), else into a buffer.
     std::vector<double> row_buffer;
-    double* row = F.dense_double_row(i);
+    double* row = sink ? nullptr : F.dense_double_row(i);
     if (!row) {
       row_buffer.assign(size_t(n), 0.0);
       row = row_buffer.data();
@@ -487,7 +492,11 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
     fill.rescale_rays(max_point_sum);
     max_row_error = std::max(max_row_error, fill.row_error());
     max_ray_error = std::max(max_ray_error, fill.row_ray_error());
-    F.set_row(i, row);
+    if (sink) {
+      if (!options.row_sink(i, row)) stopped = true;
+    } else {
+      F.set_row(i, row);
+    }
     const int done = ++rows_done;
     if (options.progress && omp_get_thread_num() == 0) options.progress(double(done) / n);
   }

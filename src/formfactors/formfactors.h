@@ -53,6 +53,12 @@ struct FillOptions {
                                            // (kAdaptiveRays: as the Visibility's RaySampling asks)
   uint64_t seed = 1;                       // ray sampling seed (results repeat for a seed)
   std::function<void(double)> progress;    // called with the fraction done (from one thread)
+  // Optional: each finished row i (its n entries F_ij) is handed to row_sink(i, row) instead of
+  // being stored, from the thread that filled it (concurrently for distinct rows, in no set
+  // order); fill_form_factors() then returns a 0 × 0 matrix. What streams a matrix too large to
+  // hold (viewfactors --format sparse). The sink must not throw; it returns false to stop the
+  // fill (the rows not started yet are skipped: a failed write ends a long run early).
+  std::function<bool(int, const double*)> row_sink;
   // Storage of the result (formfactors/storage.h); Auto is resolved by the caller from the
   // expected non-zero count (pipeline/memory.h), here it means dense.
   MatrixLayout layout = MatrixLayout::Dense;
@@ -115,8 +121,8 @@ inline bool point_facing_away(const PatchMesh& mesh, const Vec3& x, const Vec3& 
   return above <= tol || b.normal.dot(x - b.centroid) < -tol;
 }
 
-// Rows are computed into a per-thread dense buffer and stored with FormFactors::set_row, so the
-// matrix never exists in a larger layout than the one asked for.
+// Rows are computed into a per-thread dense buffer and stored with FormFactors::set_row (or handed
+// to options.row_sink), so the matrix never exists in a larger layout than the one asked for.
 FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options, FillStats& stats);
 
 // Every patch of `mesh` as one SIMD batch of source polygons (kernels/lambert_batch.h).

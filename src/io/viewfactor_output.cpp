@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <fstream>
+#include <stdexcept>
 
 #include "io/atomic_file.h"
 #include "util/error.h"
@@ -68,6 +69,36 @@ std::string csv_cell(const std::string& s) {
   }
   out.push_back('"');
   return out;
+}
+
+// The sparse form's "# surface" lines and its "i,j,F" header.
+void write_sparse_header(std::ofstream& out, const std::vector<std::string>& names, const std::vector<double>& areas) {
+  for (size_t i = 0; i < names.size(); ++i)
+    out << "# surface," << i << "," << csv_cell(names[i]) << "," << shortest(areas[i]) << "\n";
+  out << "i,j,F\n";
+}
+
+// Row i of the sparse form ("i,j,F" lines of its entries >= threshold and > 0) appended to
+// `text`; the entries below the threshold are added to dropped / dropped_count.
+void format_sparse_row(int i, const double* row, int n, double threshold, std::string& text, double& dropped,
+                       long long& dropped_count, long long& written) {
+  char index[16];
+  const size_t index_length = size_t(std::to_chars(index, index + sizeof index, i).ptr - index);
+  for (int j = 0; j < n; ++j) {
+    const double f = row[j];
+    if (f == 0.0) continue;
+    if (f < threshold) {
+      dropped += f;
+      ++dropped_count;
+      continue;
+    }
+    text.append(index, index_length).push_back(',');
+    char column[16];
+    text.append(column, size_t(std::to_chars(column, column + sizeof column, j).ptr - column)).push_back(',');
+    append_shortest(text, f);
+    text.push_back('\n');
+    ++written;
+  }
 }
 
 template <class T>
@@ -133,33 +164,15 @@ SparseWriteStats write_view_factors(AtomicOutput& atomic, ViewFactorFormat forma
         break;
       }
       case ViewFactorFormat::Sparse: {
-        for (int i = 0; i < n; ++i)
-          out << "# surface," << i << "," << csv_cell(names[i]) << "," << shortest(areas[i]) << "\n";
-        out << "i,j,F\n";
+        write_sparse_header(out, names, areas);
         // Per row, from the formatting threads; summed in row order afterwards.
         std::vector<double> dropped(size_t(n), 0.0);
         std::vector<long long> dropped_count(size_t(n), 0), written(size_t(n), 0);
         write_rows(
             atomic, n,
             [&](int i, std::string& row) {
-              char index[16];
-              const size_t index_length = size_t(std::to_chars(index, index + sizeof index, i).ptr - index);
-              for (int j = 0; j < n; ++j) {
-                const double f = F(i, j);
-                if (f == 0.0) continue;
-                if (f < threshold) {
-                  dropped[size_t(i)] += f;
-                  ++dropped_count[size_t(i)];
-                  continue;
-                }
-                row.append(index, index_length).push_back(',');
-                char column[16];
-                row.append(column, size_t(std::to_chars(column, column + sizeof column, j).ptr - column))
-                    .push_back(',');
-                append_shortest(row, f);
-                row.push_back('\n');
-                ++written[size_t(i)];
-              }
+              format_sparse_row(i, F.row(i).data(), n, threshold, row, dropped[size_t(i)], dropped_count[size_t(i)],
+                                written[size_t(i)]);
             },
             progress);
         for (int i = 0; i < n; ++i) {
@@ -226,6 +239,52 @@ SparseWriteStats write_view_factors(AtomicOutput& atomic, ViewFactorFormat forma
     atomic.check_stream();  // the caller's commit() flushes, closes and syncs
   }
   return st;
+}
+
+SparseRowStream::SparseRowStream(AtomicOutput& out, const std::vector<std::string>& names,
+                                 const std::vector<double>& areas, double threshold)
+    : out_(out), n_(static_cast<int>(names.size())), threshold_(threshold) {
+  write_sparse_header(out_.stream(), names, areas);
+  out_.check_stream();
+}
+
+void SparseRowStream::add_row(int i, const double* F_row) {
+  Row row;
+  format_sparse_row(i, F_row, n_, threshold_, row.text, row.dropped, row.dropped_count, row.written);
+  const std::lock_guard<std::mutex> lock(mutex_);
+  write_in_order(std::move(row), i);
+}
+
+void SparseRowStream::write_in_order(Row row, int i) {
+  if (i != next_) {
+    waiting_.emplace(i, std::move(row));
+    return;
+  }
+  std::ofstream& out = out_.stream();
+  for (;;) {
+    out.write(row.text.data(), std::streamsize(row.text.size()));
+    // In row order, as write_view_factors sums them.
+    stats_.written += row.written;
+    stats_.dropped += row.dropped_count;
+    stats_.total_dropped += row.dropped;
+    if (row.dropped > stats_.max_dropped_row_sum) {
+      stats_.max_dropped_row_sum = row.dropped;
+      stats_.worst_row = next_;
+    }
+    ++next_;
+    const auto it = waiting_.find(next_);
+    if (it == waiting_.end()) break;
+    row = std::move(it->second);
+    waiting_.erase(it);
+  }
+  out_.check_stream();
+}
+
+SparseWriteStats SparseRowStream::finish() {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  if (next_ != n_ || !waiting_.empty())
+    throw std::logic_error("SparseRowStream: " + std::to_string(n_ - next_) + " rows were not added");
+  return stats_;
 }
 
 void write_point_factors(AtomicOutput& atomic, const std::vector<std::string>& point_ids,

@@ -28,6 +28,8 @@
 #pragma once
 #include <Eigen/Core>
 #include <functional>
+#include <map>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -65,6 +67,39 @@ SparseWriteStats write_view_factors(AtomicOutput& out, ViewFactorFormat format, 
                                     const std::vector<double>& areas, const ViewFactorRows& F, double threshold = 0.0,
                                     const View3dOutput& view3d = {},
                                     const std::function<void(double)>& progress = nullptr);
+
+// The sparse form written while its rows are computed (`viewfactors --format sparse`, streamed):
+// the same bytes as write_view_factors(Sparse) of the whole matrix, but no row is held after it
+// is written, so memory follows the rows in flight instead of n². The "# surface" lines and the
+// "i,j,F" header are written at construction; add_row() may be called from any thread, once per
+// row, in any order: the row is formatted on the calling thread, then written as soon as every
+// row before it is (rows that arrive early wait, formatted, in memory).
+class SparseRowStream {
+ public:
+  // `out` must outlive this object; threshold as write_view_factors.
+  SparseRowStream(AtomicOutput& out, const std::vector<std::string>& names, const std::vector<double>& areas,
+                  double threshold);
+  // Row i's n entries (F_ij, j = 0 .. n-1). Throws Error(Io) naming the file when writing fails.
+  void add_row(int i, const double* F_row);
+  // Checks that every row arrived (std::logic_error otherwise) and returns the drop statistics,
+  // equal to write_view_factors'.
+  SparseWriteStats finish();
+
+ private:
+  struct Row {
+    std::string text;
+    double dropped = 0.0;
+    long long dropped_count = 0, written = 0;
+  };
+  void write_in_order(Row row, int i);  // with mutex_ held
+  AtomicOutput& out_;
+  int n_;
+  double threshold_;
+  std::mutex mutex_;
+  int next_ = 0;                // the next row to write
+  std::map<int, Row> waiting_;  // rows formatted before their turn
+  SparseWriteStats stats_;
+};
 
 // Point-to-surface factors (P points × G surfaces) as CSV: header "point,<name_1>,...,<name_G>",
 // then "<id>,F_1,...,F_G" per point, shortest round-trip decimals, into `out`'s temporary file (not

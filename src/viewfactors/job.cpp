@@ -5,7 +5,9 @@
 #include <cctype>
 #include <chrono>
 #include <cstdio>
+#include <exception>
 #include <filesystem>
+#include <mutex>
 #include <optional>
 #include <sstream>
 
@@ -55,6 +57,67 @@ bool view3d_asks_for_exchange_factors(const std::string& path, const Scene& scen
   const auto it = control.is_object() ? control.find("emit") : control.end();
   return it != control.end() && it->is_number() && it->get<double>() != 0.0;
 }
+
+// The rows of a streamed fill (ViewFactorOptions::row_sink_for) into the sparse output: each
+// patch row permuted into output order, checked (its sum as check_matrix sums it, the entry
+// extremes) and handed to the SparseRowStream. A failure to write is kept, and stops the fill.
+class StreamedRows {
+ public:
+  StreamedRows(AtomicOutput& out, const Aggregation& agg, double threshold)
+      : writer_(out, agg.names, agg.areas, threshold),
+        of_patch_(agg.of_patch),
+        patch_of_(agg.of_patch.size(), -1),
+        row_sums_(agg.of_patch.size(), 0.0) {
+    for (size_t i = 0; i < of_patch_.size(); ++i) {
+      patch_of_[size_t(of_patch_[i])] = int(i);
+      identity_ = identity_ && of_patch_[i] == int(i);
+    }
+  }
+
+  bool add(int i, const double* patch_row) {
+    try {
+      const int n = int(of_patch_.size());
+      thread_local std::vector<double> permuted;
+      const double* row = patch_row;
+      if (!identity_) {
+        permuted.resize(size_t(n));
+        for (int J = 0; J < n; ++J) permuted[size_t(J)] = patch_row[patch_of_[size_t(J)]];
+        row = permuted.data();
+      }
+      const Eigen::Map<const Eigen::VectorXd> values(row, n);
+      const int I = of_patch_[size_t(i)];
+      row_sums_[size_t(I)] = values.sum();
+      const double lo = values.minCoeff(), hi = values.maxCoeff();
+      {
+        const std::lock_guard<std::mutex> lock(mutex_);
+        min_entry_ = std::min(min_entry_, lo);
+        max_entry_ = std::max(max_entry_, hi);
+      }
+      writer_.add_row(I, row);
+      return true;
+    } catch (...) {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      if (!failure_) failure_ = std::current_exception();
+      return false;
+    }
+  }
+
+  // After the fill: rethrows a failure, else the drop statistics and the row checks.
+  SparseWriteStats finish(MatrixChecks& checks) {
+    if (failure_) std::rethrow_exception(failure_);
+    checks = check_rows(row_sums_, min_entry_, max_entry_);
+    return writer_.finish();
+  }
+
+ private:
+  SparseRowStream writer_;
+  std::vector<int> of_patch_, patch_of_;
+  bool identity_ = true;
+  std::vector<double> row_sums_;  // per output row
+  std::mutex mutex_;
+  double min_entry_ = 1e300, max_entry_ = -1e300;
+  std::exception_ptr failure_;
+};
 
 // A number as the C line would give it ("1e-05", "2").
 std::string control_value(double v) {
@@ -107,6 +170,49 @@ std::vector<std::string> view3d_control_notes(const nlohmann::json& control, con
   return notes;
 }
 
+namespace {
+
+// The point factors, written to their (not yet committed) output.
+void finish_points(const ViewFactorJobResult& res, const std::vector<SurfacePoint>& points, const PatchViewFactors& r,
+                   const Aggregation& agg, std::optional<AtomicOutput>& points_out) {
+  if (!points_out) return;
+  const ViewFactorMatrix P = point_view_factors(points, r.mesh, agg, r.visibility.get(), res.job.fill);
+  std::vector<std::string> ids;
+  for (const SurfacePoint& p : points) ids.push_back(p.id);
+  write_point_factors(*points_out, ids, agg.names, P);
+}
+
+// All or nothing: the matrix first, then the point factors; when those fail to commit, the
+// committed matrix is removed again.
+void commit_all(AtomicOutput& main_out, std::optional<AtomicOutput>& points_out) {
+  main_out.commit();
+  if (points_out) {
+    try {
+      points_out->commit();
+    } catch (...) {
+      std::remove(main_out.target().c_str());
+      throw;
+    }
+  }
+}
+
+void fill_result(ViewFactorJobResult& res, const Scene& scene, const PatchViewFactors& r, const Aggregation& agg,
+                 std::chrono::steady_clock::time_point t0) {
+  res.faces = static_cast<int>(scene.faces.size());
+  res.patches = r.mesh.size();
+  res.names = agg.names;
+  res.areas = agg.areas;
+  res.visibility_mode = r.visibility_mode;
+  res.visibility_reason = r.visibility_reason;
+  res.matrix_storage = r.streamed ? "streamed" : r.F.description();
+  res.matrix_bytes = r.F.bytes();
+  res.memory = r.memory;
+  res.fill = r.fill;
+  res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
 ViewFactorJobResult run_view_factor_job(const ViewFactorJob& job) {
   const auto t0 = std::chrono::steady_clock::now();
   ViewFactorJobResult res;
@@ -153,9 +259,27 @@ ViewFactorJobResult run_view_factor_job(const ViewFactorJob& job) {
   if (res.exchange_factors && all_zero(view3d_emissivities(job.scene)))  // before the fill
     throw_bad_input(job.scene + no_emissivity);
 
+  // The sparse form can be written while the rows are filled (compute_view_factors decides).
+  std::optional<StreamedRows> streamed;
+  opt.stream = job.stream;
+  if (job.format == ViewFactorFormat::Sparse)
+    opt.row_sink_for = [&](const PatchMesh&, const Aggregation& agg) -> std::function<bool(int, const double*)> {
+      streamed.emplace(main_out, agg, job.threshold);
+      return [&streamed](int i, const double* row) { return streamed->add(i, row); };
+    };
   const PatchViewFactors r = compute_view_factors(scene, opt);
+  opt.row_sink_for = nullptr;  // (it refers to this frame)
   if (scene.settings.contains("view3d")) res.view3d_control = view3d_control_notes(scene.settings["view3d"], res.job);
   const Aggregation agg = make_aggregation(scene, r.mesh, job.level);
+  res.streamed = r.streamed;
+  res.stream_reason = r.stream_reason;
+  if (r.streamed) {
+    res.sparse = streamed->finish(res.checks);
+    finish_points(res, points, r, agg, points_out);
+    commit_all(main_out, points_out);
+    fill_result(res, scene, r, agg, t0);
+    return res;
+  }
   res.F = aggregate(r.F, r.mesh, agg);
   // As View3D (its main program): the enclosure adjustment of the geometric factors first, then
   // the emissivities (IntFac).
@@ -180,33 +304,9 @@ ViewFactorJobResult run_view_factor_job(const ViewFactorJob& job) {
   std::function<void(double)> writing;
   if (opt.progress) writing = [&opt](double f) { opt.progress("writing", f); };
   res.sparse = write_view_factors(main_out, job.format, agg.names, agg.areas, res.F, job.threshold, v3, writing);
-  if (points_out) {
-    const ViewFactorMatrix P = point_view_factors(points, r.mesh, agg, r.visibility.get(), opt);
-    std::vector<std::string> ids;
-    for (const SurfacePoint& p : points) ids.push_back(p.id);
-    write_point_factors(*points_out, ids, agg.names, P);
-  }
-  main_out.commit();
-  if (points_out) {
-    try {
-      points_out->commit();
-    } catch (...) {
-      std::remove(main_out.target().c_str());  // all or nothing
-      throw;
-    }
-  }
-
-  res.faces = static_cast<int>(scene.faces.size());
-  res.patches = r.mesh.size();
-  res.names = agg.names;
-  res.areas = agg.areas;
-  res.visibility_mode = r.visibility_mode;
-  res.visibility_reason = r.visibility_reason;
-  res.matrix_storage = r.F.description();
-  res.matrix_bytes = r.F.bytes();
-  res.memory = r.memory;
-  res.fill = r.fill;
-  res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  finish_points(res, points, r, agg, points_out);
+  commit_all(main_out, points_out);
+  fill_result(res, scene, r, agg, t0);
   return res;
 }
 

@@ -11,7 +11,9 @@
 //      check_matrix() (viewfactors/viewfactors.h); for a .vs3 input whose C line has emit=1,
 //      then exchange_factors() with the surfaces' emissivities (Hottel's script-F, after the
 //      enforcement as View3D normalises its enclosure before IntFac) and check_matrix() again;
-//   4. writes the matrix (io/viewfactor_output.h) and, with points, the point factors;
+//   4. writes the matrix (io/viewfactor_output.h) and, with points, the point factors; a sparse
+//      output whose rows are streamed (ViewFactorOptions::stream) is written during step 3
+//      instead, and steps 3's aggregation and checks are made row by row;
 //   5. commits the outputs all or nothing: the matrix first, then the point factors; when the
 //      point factors fail to commit, the committed matrix is removed again.
 // It prints nothing.
@@ -40,6 +42,9 @@ struct ViewFactorJob {
                                                     // Closure and Both also set View3D's `encl` flag
   std::string points;                               // points file (.json or .csv, load_points); empty: none
   std::string points_output;                        // where the point factors go; empty: output + ".points.csv"
+  // Sparse only: write the rows while they are filled, never holding the matrix
+  // (ViewFactorOptions::stream: auto streams when the matrix would not fit the memory limit).
+  RowStreaming stream = RowStreaming::Auto;
   // The fill: patching (default: one patch per input face), accuracy (default 1e-7), visibility,
   // rays, threads, storage, memory limit. Its `level`, `enforcement` and `points` are set by the
   // job from the fields above (they size the memory estimate), whatever they hold here.
@@ -74,6 +79,10 @@ struct ViewFactorJobResult {
                                          // --format view3d); empty otherwise
   EnforcementReport enforcement_report;  // all zero when enforcement is None
   SparseWriteStats sparse;               // drop statistics; all zero unless format is Sparse
+  // The rows went to the file as they were filled (F is then empty and checks.reciprocity_checked
+  // false), and why or why not (PatchViewFactors::stream_reason).
+  bool streamed = false;
+  std::string stream_reason;
   // A .vs3 input's C line: per key given, what became of it ("eps=1e-05: superseded by
   // --accuracy 1e-07", ...), in the order of view3d_control_notes(); empty otherwise.
   std::vector<std::string> view3d_control;

@@ -15,7 +15,7 @@ nlohmann::json checks_json(const MatrixChecks& c, const std::vector<std::string>
           {"row_sum_mean", c.mean_row_sum},
           {"worst_row", c.worst_row},
           {"worst_row_name", names.empty() ? "" : names[static_cast<size_t>(c.worst_row)]},
-          {"reciprocity_error_max", c.reciprocity_error},
+          {"reciprocity_error_max", c.reciprocity_checked ? nlohmann::json(c.reciprocity_error) : nlohmann::json()},
           {"min_entry", c.min_entry},
           {"max_entry", c.max_entry}};
 }
@@ -88,7 +88,9 @@ nlohmann::json viewfactor_summary_json(const ViewFactorJobResult& r) {
                    {"dropped", ws.dropped},
                    {"dropped_row_sum_max", ws.max_dropped_row_sum},
                    {"dropped_worst_row", ws.worst_row},
-                   {"dropped_total", ws.total_dropped}};
+                   {"dropped_total", ws.total_dropped},
+                   {"streamed", r.streamed},
+                   {"stream_reason", r.stream_reason}};
   if (!job.points_output.empty()) j["points"] = {{"count", job.fill.points}, {"output", job.points_output}};
   if (!r.view3d_control.empty()) j["view3d_control"] = r.view3d_control;
   j["seconds"] = r.seconds;
@@ -113,8 +115,10 @@ std::string viewfactor_summary_text(const ViewFactorJobResult& r) {
   }
   o << "  row sums: min " << checks.min_row_sum << ", max " << checks.max_row_sum << ", mean " << checks.mean_row_sum
     << "; worst row " << checks.worst_row << " (" << r.names[static_cast<size_t>(checks.worst_row)] << ")\n"
-    << "  reciprocity error max: " << checks.reciprocity_error << "\n"
-    << "  matrix: " << r.matrix_storage << ", " << format_bytes(r.matrix_bytes) << " (" << m.storage_reason << ")\n"
+    << "  reciprocity error max: ";
+  if (checks.reciprocity_checked) o << checks.reciprocity_error << "\n";
+  else o << "not checked (the rows were streamed, never held together)\n";
+  o << "  matrix: " << r.matrix_storage << ", " << format_bytes(r.matrix_bytes) << " (" << m.storage_reason << ")\n"
     << "  memory estimate: " << format_bytes(m.estimated_bytes) << " for this run (" << format_bytes(m.matrix_bytes)
     << " patch matrix, " << format_bytes(m.output_bytes) << " output); limit " << format_bytes(m.limit_bytes) << " ("
     << m.limit_source << ")\n"
@@ -138,7 +142,8 @@ std::string viewfactor_summary_text(const ViewFactorJobResult& r) {
   const SparseWriteStats& ws = r.sparse;
   if (job.format == ViewFactorFormat::Sparse)
     o << "  sparse: " << ws.written << " entries written, " << ws.dropped << " below " << job.threshold
-      << " dropped; largest dropped row sum " << ws.max_dropped_row_sum << " (row " << ws.worst_row << ")\n";
+      << " dropped; largest dropped row sum " << ws.max_dropped_row_sum << " (row " << ws.worst_row << "); "
+      << (r.streamed ? "rows streamed" : "matrix stored") << " (" << r.stream_reason << ")\n";
   if (!job.points_output.empty())
     o << "  point factors: " << job.fill.points << " points -> " << job.points_output << "\n";
   if (!r.view3d_control.empty()) {

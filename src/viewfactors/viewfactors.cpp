@@ -28,14 +28,18 @@ namespace {
 // output surfaces (the output matrices' bytes on top of the solve's), checked as the solve's is
 // (pipeline/memory.h check_storage). Called before patching, from the counts (surfaces: a lower
 // bound, 0 unless --by patch), and after, from the mesh.
-StorageChoice check_memory(const MemoryEstimate& estimate, double patches, double surfaces,
-                           const ViewFactorOptions& opt, ViewFactorMemory& m) {
+double stored_output_bytes(double surfaces, const ViewFactorOptions& opt) {
   const double g = surfaces;
-  const double output_bytes = 8.0 * g * g * (1.0 + (opt.enforcement ? 4.0 : 0.0) + (opt.exchange_factors ? 3.0 : 0.0)) +
-                              8.0 * double(std::max(opt.points, 0)) * g;
+  return 8.0 * g * g * (1.0 + (opt.enforcement ? 4.0 : 0.0) + (opt.exchange_factors ? 3.0 : 0.0)) +
+         8.0 * double(std::max(opt.points, 0)) * g;
+}
+
+void check_stored(const MemoryEstimate& estimate, double patches, double surfaces, const ViewFactorOptions& opt,
+                  ViewFactorMemory& m) {
+  const double output_bytes = stored_output_bytes(surfaces, opt);
   const StorageChoice c =
       check_storage(estimate, patches, output_bytes, opt.matrix_layout, opt.matrix_precision, opt.max_memory_bytes,
-                    "view factors need an estimated", ", " + format_patch_count(g) + " output surfaces",
+                    "view factors need an estimated", ", " + format_patch_count(surfaces) + " output surfaces",
                     opt.level != AggregateLevel::Group ? "use --by group" : "");
   m.patches = estimate;
   m.surfaces = static_cast<int>(std::min(surfaces, double(std::numeric_limits<int>::max())));
@@ -46,23 +50,109 @@ StorageChoice check_memory(const MemoryEstimate& estimate, double patches, doubl
   m.estimated_bytes = c.estimated_bytes;
   m.limit_bytes = c.limit_bytes;
   m.limit_source = c.limit_source;
-  return c;
+}
+
+// The stored matrix's storage and estimate, with the output copy (`fits`: check_stored would not
+// throw).
+StorageChoice stored_choice(const MemoryEstimate& estimate, double patches, double surfaces,
+                            const ViewFactorOptions& opt) {
+  return choose_storage(opt.matrix_layout, opt.matrix_precision, patches, double(estimate.nonzero_pairs),
+                        estimate.per_patch_bytes * patches + stored_output_bytes(surfaces, opt), opt.max_memory_bytes);
+}
+
+// The streamed run's estimate: the per-patch arrays, the rows in flight and the point rows.
+void check_streamed(const MemoryEstimate& estimate, double patches, double surfaces, const ViewFactorOptions& opt,
+                    ViewFactorMemory& m) {
+  const double threads = opt.threads > 0 ? opt.threads : omp_get_max_threads();
+  m.patches = estimate;
+  m.surfaces = static_cast<int>(std::min(surfaces, double(std::numeric_limits<int>::max())));
+  m.output_bytes = 8.0 * double(std::max(opt.points, 0)) * surfaces;
+  m.storage = "streamed";
+  m.matrix_bytes = 0.0;
+  m.estimated_bytes = estimate.per_patch_bytes * patches + threads * kStreamedRowBytes * patches + m.output_bytes;
+  m.limit_bytes = opt.max_memory_bytes > 0 ? opt.max_memory_bytes : available_memory_bytes();
+  m.limit_source = opt.max_memory_bytes > 0 ? "--max-memory" : "MemAvailable";
+  if (m.limit_bytes > 0 && m.estimated_bytes > m.limit_bytes) {
+    StorageChoice c;
+    c.limit_bytes = m.limit_bytes;
+    c.limit_source = m.limit_source;
+    throw_bad_input("view factors need an estimated " + format_bytes(m.estimated_bytes) + " for " +
+                    format_patch_count(patches) + " patches (rows streamed, " + format_patch_count(surfaces) +
+                    " output surfaces) but " + c.limit_description() + "; raise --max-edge or raise --max-memory");
+  }
+}
+
+// Why the fill cannot stream its rows ("" when it can, before patching: `mesh` null).
+std::string why_not_streamed(const ViewFactorOptions& opt, const Aggregation* agg, int patches) {
+  if (!opt.row_sink_for) return "the output needs the whole matrix (--format sparse streams)";
+  if (opt.level == AggregateLevel::Group) return "--by group sums rows of several patches";
+  if (opt.enforcement) return "--enforce needs the whole matrix";
+  if (opt.exchange_factors) return "C emit=1 (exchange factors) needs the whole matrix";
+  if (agg && (agg->size() != patches || !agg->minus_of_patch.empty()))
+    return "a face is split into several patches (--by face sums their rows)";
+  return "";
 }
 
 }  // namespace
 
+std::string row_streaming_name(RowStreaming mode) {
+  switch (mode) {
+    case RowStreaming::Auto: return "auto";
+    case RowStreaming::Yes: return "yes";
+    case RowStreaming::No: return "no";
+  }
+  return "?";
+}
+
+bool row_streaming_from_name(const std::string& name, RowStreaming& out) {
+  for (RowStreaming mode : {RowStreaming::Auto, RowStreaming::Yes, RowStreaming::No})
+    if (name == row_streaming_name(mode)) {
+      out = mode;
+      return true;
+    }
+  return false;
+}
+
 PatchViewFactors compute_view_factors(const Scene& scene, const ViewFactorOptions& opt) {
   if (opt.threads > 0) omp_set_num_threads(opt.threads);
   PatchViewFactors r;
+  // Stream or store: decided from the counts before patching (so that a matrix too large to
+  // store is not refused there), confirmed from the mesh after.
+  bool stream = false;
   {
     const PatchGrid grid = count_patches(scene, opt.patching);
     if (grid.patches == 0) throw_bad_input(scene.source + ": no surface to compute view factors for");
-    check_memory(estimate_memory(scene, grid, opt.seed), grid.patches,
-                 opt.level == AggregateLevel::Patch ? grid.patches : 0.0, opt, r.memory);
+    const MemoryEstimate e = estimate_memory(scene, grid, opt.seed);
+    const double surfaces = opt.level == AggregateLevel::Patch ? grid.patches : 0.0;
+    const std::string why_not = why_not_streamed(opt, nullptr, 0);
+    if (opt.stream == RowStreaming::Yes && !why_not.empty()) throw_bad_input("--stream yes: " + why_not);
+    stream = opt.stream != RowStreaming::No && why_not.empty() &&
+             (opt.stream == RowStreaming::Yes || !stored_choice(e, grid.patches, surfaces, opt).fits);
+    if (stream) check_streamed(e, grid.patches, surfaces, opt, r.memory);
+    else check_stored(e, grid.patches, surfaces, opt, r.memory);
   }
   r.mesh = subdivide(scene, opt.patching);
-  const StorageChoice storage = check_memory(estimate_memory(r.mesh, opt.seed), r.mesh.size(),
-                                             make_aggregation(scene, r.mesh, opt.level).size(), opt, r.memory);
+  const MemoryEstimate estimate = estimate_memory(r.mesh, opt.seed);
+  const Aggregation agg = make_aggregation(scene, r.mesh, opt.level);
+  const std::string why_not = why_not_streamed(opt, &agg, r.mesh.size());
+  if (opt.stream == RowStreaming::Yes && !why_not.empty()) throw_bad_input("--stream yes: " + why_not);
+  const StorageChoice storage = stored_choice(estimate, r.mesh.size(), agg.size(), opt);
+  stream = stream && why_not.empty();
+  if (opt.stream == RowStreaming::Auto && why_not.empty()) stream = !storage.fits;
+  if (stream) {
+    check_streamed(estimate, r.mesh.size(), agg.size(), opt, r.memory);
+    r.stream_reason = opt.stream == RowStreaming::Yes
+                          ? "requested (--stream yes)"
+                          : "auto: the stored matrix and its output copy need an estimated " +
+                                format_bytes(storage.estimated_bytes) + ", over the limit";
+    r.memory.storage_reason = r.stream_reason;
+  } else {
+    check_stored(estimate, r.mesh.size(), agg.size(), opt, r.memory);
+    r.stream_reason = opt.stream == RowStreaming::No ? "requested (--stream no)"
+                      : !why_not.empty()             ? why_not
+                                                     : "auto: the matrix fits the memory limit, stored";
+  }
+  r.streamed = stream;
   // Visibility: the same decision as the solve's (visibility/choice.h).
   const VisibilityChoice visibility = choose_visibility(scene, opt.visibility, opt.rays);
   r.visibility_mode = visibility.name();
@@ -78,6 +168,7 @@ PatchViewFactors compute_view_factors(const Scene& scene, const ViewFactorOption
   fill.seed = opt.seed;
   fill.layout = storage.layout;
   fill.precision = storage.precision;
+  if (stream) fill.row_sink = opt.row_sink_for(r.mesh, agg);
   r.F = fill_form_factors(r.mesh, fill, r.fill);
   return r;
 }
@@ -195,26 +286,12 @@ MatrixChecks check_matrix(const ViewFactorMatrix& F, const std::vector<double>& 
   MatrixChecks c;
   const int n = static_cast<int>(F.rows());
   if (n == 0) return c;
-  c.min_row_sum = 1e300;
-  c.max_row_sum = -1e300;
-  c.min_entry = F.minCoeff();
-  c.max_entry = F.maxCoeff();
-  // Row sums on every core, then their extremes in row order (the worst row is the first found).
+  // Row sums on every core, then their extremes in row order (check_rows).
   std::vector<double> sums(size_t(n), 0.0);
 #pragma omp parallel for schedule(static)
   for (int i = 0; i < n; ++i) sums[size_t(i)] = F.row(i).sum();
-  double worst = -1.0, total = 0.0;
-  for (int i = 0; i < n; ++i) {
-    const double s = sums[size_t(i)];
-    total += s;
-    c.min_row_sum = std::min(c.min_row_sum, s);
-    c.max_row_sum = std::max(c.max_row_sum, s);
-    if (std::abs(s - 1.0) > worst) {
-      worst = std::abs(s - 1.0);
-      c.worst_row = i;
-    }
-  }
-  c.mean_row_sum = total / n;
+  c = check_rows(sums, F.minCoeff(), F.maxCoeff());
+  c.reciprocity_checked = true;
   // Reciprocity over the upper triangle in square tiles, so that F(j, i) (a column walk in the
   // row-major matrix) stays in cache; a maximum does not depend on the order.
   constexpr int kTile = 64;
@@ -228,6 +305,31 @@ MatrixChecks check_matrix(const ViewFactorMatrix& F, const std::vector<double>& 
           reciprocity = std::max(reciprocity, std::abs(areas[size_t(i)] * F(i, j) - areas[size_t(j)] * F(j, i)) /
                                                   std::min(areas[size_t(i)], areas[size_t(j)]));
   c.reciprocity_error = reciprocity;
+  return c;
+}
+
+MatrixChecks check_rows(const std::vector<double>& row_sums, double min_entry, double max_entry) {
+  MatrixChecks c;
+  c.reciprocity_checked = false;
+  const int n = static_cast<int>(row_sums.size());
+  if (n == 0) return c;
+  c.min_row_sum = 1e300;
+  c.max_row_sum = -1e300;
+  c.min_entry = min_entry;
+  c.max_entry = max_entry;
+  // In row order: the worst row is the first found.
+  double worst = -1.0, total = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const double s = row_sums[size_t(i)];
+    total += s;
+    c.min_row_sum = std::min(c.min_row_sum, s);
+    c.max_row_sum = std::max(c.max_row_sum, s);
+    if (std::abs(s - 1.0) > worst) {
+      worst = std::abs(s - 1.0);
+      c.worst_row = i;
+    }
+  }
+  c.mean_row_sum = total / n;
   return c;
 }
 

@@ -37,6 +37,16 @@ bool aggregate_level_from_name(const std::string& name, AggregateLevel& out);
 
 inline constexpr double kDefaultOccludedAccuracy = 1e-3;
 
+struct Aggregation;  // below: the output surfaces
+
+// Whether the fill streams its rows to the output instead of storing the N × N matrix
+// (`viewfactors --stream`, ViewFactorOptions::stream).
+enum class RowStreaming { Auto, Yes, No };
+// "auto", "yes", "no".
+std::string row_streaming_name(RowStreaming mode);
+// The mode named `name` (as row_streaming_name) into `out`; false when unknown.
+bool row_streaming_from_name(const std::string& name, RowStreaming& out);
+
 struct ViewFactorOptions {
   PatchingOptions patching;  // default: no subdivision beyond the input faces
   double accuracy = 1e-7;    // per-pair relative tolerance for pairs nothing can block
@@ -70,6 +80,17 @@ struct ViewFactorOptions {
   bool enforcement = false;
   bool exchange_factors = false;  // exchange_factors() (three more G × G matrices at its peak)
   int points = 0;
+  // Streaming: each filled row is handed to a row sink (FillOptions::row_sink: any thread, any
+  // order; false stops the fill) instead of being stored, so that memory follows the rows in
+  // flight, not N². Possible when row_sink_for is given, the level is face or patch with one
+  // patch per output surface (a patch row is an output row, of_patch a permutation), and neither
+  // enforcement nor exchange factors need the whole matrix. Auto: stream when possible and the
+  // stored matrix with its output copy would exceed the memory limit; Yes: stream (BadInput when
+  // not possible); No: never (the memory check refuses what does not fit).
+  RowStreaming stream = RowStreaming::Auto;
+  // Called once streaming is decided, before the fill, with the patches and the output surfaces;
+  // returns the sink of the patch rows (row i of the patch matrix, N entries in patch order).
+  std::function<std::function<bool(int, const double*)>(const PatchMesh&, const Aggregation&)> row_sink_for;
 };
 
 // The memory estimate, made after patching and before visibility and the fill.
@@ -83,15 +104,23 @@ struct ViewFactorMemory {
   int surfaces = 0;            // G, rows of the output
   std::string storage;         // "dense double", "sparse float", ...
   std::string storage_reason;  // "requested (--matrix sparse)" or "auto: ..."
+  // Streamed: matrix_bytes and output_bytes are 0, and estimated_bytes is the per-patch arrays
+  // and the rows in flight (threads × kStreamedRowBytes × N).
   double matrix_bytes = 0.0, output_bytes = 0.0, estimated_bytes = 0.0;
   double limit_bytes = 0.0;  // the limit checked against (0 = unknown: not checked)
   std::string limit_source;  // "--max-memory" or "MemAvailable"
 };
 
+// Bytes per patch of one row in flight when streaming: the row (8 N), its receiver kernels and
+// facing classes (formfactors.cpp RowFill), and its formatted text waiting for its turn.
+inline constexpr double kStreamedRowBytes = 64.0;
+
 // Patch-level result of the fill.
 struct PatchViewFactors {
   PatchMesh mesh;
-  FormFactors F;  // N × N patch factors (row i = from patch i)
+  FormFactors F;              // N × N patch factors (row i = from patch i); 0 × 0 when streamed
+  bool streamed = false;      // the rows went to options.row_sink
+  std::string stream_reason;  // why streamed or not ("auto: ...", "requested (--stream yes)")
   FillStats fill;
   ViewFactorMemory memory;
   std::string visibility_mode;  // "none", "exact" or "rays"
@@ -125,11 +154,16 @@ ViewFactorMatrix aggregate(const FormFactors& F, const PatchMesh& mesh, const Ag
 // Checks of a view-factor matrix with surface areas `areas` (size n).
 struct MatrixChecks {
   double min_row_sum = 0.0, max_row_sum = 0.0, mean_row_sum = 0.0;
-  int worst_row = 0;               // row whose sum is farthest from 1
-  double reciprocity_error = 0.0;  // max_{i<j} |A_i F_ij − A_j F_ji| / min(A_i, A_j)
+  int worst_row = 0;                // row whose sum is farthest from 1
+  double reciprocity_error = 0.0;   // max_{i<j} |A_i F_ij − A_j F_ji| / min(A_i, A_j)
+  bool reciprocity_checked = true;  // false for streamed rows (check_rows): reciprocity_error is 0
   double min_entry = 0.0, max_entry = 0.0;
 };
 MatrixChecks check_matrix(const ViewFactorMatrix& F, const std::vector<double>& areas);
+// The checks of rows that were never held together (streamed): from each row's sum (as
+// check_matrix sums it: Eigen's sum of the row) and the extremes of all entries; the reciprocity
+// error needs both triangles at once, so it is not checked (reciprocity_checked = false).
+MatrixChecks check_rows(const std::vector<double>& row_sums, double min_entry, double max_entry);
 
 enum class Enforcement { None, Reciprocity, Closure, Both };
 // "none", "reciprocity", "closure", "both" (the names of `viewfactors --enforce`).

@@ -22,9 +22,18 @@ using visibility_detail::bounding_diagonal;
 
 bool scene_needs_no_visibility(const Scene& scene, std::string* reason) {
   const double tol = 1e-9 * bounding_diagonal(scene.vertices);
+  // The plane tested last: the next face in it needs no test of its own (a surface meshed into
+  // many faces lists them one after another), which makes this linear, not quadratic, in such
+  // scenes. Same plane: normals within 1e-12 and the face's first corner within tol / 1000 of it.
+  Vec3 tested_normal = Vec3::Zero(), tested_point = Vec3::Zero();
   for (size_t f = 0; f < scene.faces.size(); ++f) {
     const Polygon poly = scene.face_polygon(static_cast<int>(f));
     const Vec3 n = polygon_normal(poly);
+    if ((n - tested_normal).lpNorm<Eigen::Infinity>() <= 1e-12 &&
+        std::abs(tested_normal.dot(poly[0] - tested_point)) <= 1e-3 * tol)
+      continue;
+    tested_normal = n;
+    tested_point = poly[0];
     for (size_t v = 0; v < scene.vertices.size(); ++v) {
       if (n.dot(scene.vertices[v] - poly[0]) < -tol) {
         if (reason) {
