@@ -1,7 +1,5 @@
 #include "formfactors/storage.h"
 
-#include <sys/mman.h>
-
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
@@ -9,6 +7,7 @@
 #include <type_traits>
 
 #include "util/error.h"
+#include "util/huge_pages.h"
 
 namespace photometria {
 
@@ -84,15 +83,8 @@ FormFactors::DenseBlock<T> FormFactors::allocate_dense(int n) {
   // twice. Small blocks are zeroed by calloc itself.
   DenseBlock<T> block(static_cast<T*>(std::calloc(std::max<size_t>(count, 1), sizeof(T))));
   if (!block) throw std::bad_alloc();
-  // A large block also asks for transparent huge pages (2 MiB: 512 times fewer page faults and
-  // TLB entries for the N² entries that the fill writes and every solver sweep streams; Debian's
-  // default THP mode is "madvise"). Advice only: where refused, small pages are used.
-  constexpr size_t kHuge = size_t(2) << 20;
-  if (bytes >= 4 * kHuge) {
-    const uintptr_t begin = (reinterpret_cast<uintptr_t>(block.get()) + kHuge - 1) & ~(kHuge - 1);
-    const uintptr_t end = (reinterpret_cast<uintptr_t>(block.get()) + bytes) & ~(kHuge - 1);
-    if (end > begin) (void)::madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
-  }
+  // Huge pages for the N² entries that the fill writes and every solver sweep streams.
+  advise_huge_pages(block.get(), bytes);
   return block;
 }
 

@@ -18,6 +18,7 @@
 #include "kernels/lambert.h"
 #include "pipeline/memory.h"
 #include "util/error.h"
+#include "util/huge_pages.h"
 #include "visibility/visibility.h"
 
 namespace photometria {
@@ -249,16 +250,22 @@ ViewFactorMatrix aggregate(const FormFactors& F, const PatchMesh& mesh, const Ag
   // algebra, View3D's post-processing). A mask patch (mask_of_patch) is taken out of its base
   // likewise and adds A_M to A_M F_MB and A_B F_BM instead.
   const int g = agg.size();
-  ViewFactorMatrix out = ViewFactorMatrix::Zero(g, g);
   if (g == mesh.size() && agg.minus_of_patch.empty()) {
-    // One patch per surface (faces not split): F_IJ = F_ij itself, rows independent, on every core.
+    // One patch per surface (faces not split): F_IJ = F_ij itself, rows independent, on every
+    // core. The output is not zeroed first where a dense F sets every entry: each row's memory
+    // is first touched by the thread that copies it, in huge pages.
+    ViewFactorMatrix out(g, g);
+    advise_huge_pages(out.data(), sizeof(double) * size_t(g) * size_t(g));
+    const bool every_entry = F.layout() == MatrixLayout::Dense;
 #pragma omp parallel for schedule(dynamic, 16)
     for (int i = 0; i < mesh.size(); ++i) {
       double* row = out.row(agg.of_patch[i]).data();
+      if (!every_entry) std::fill(row, row + g, 0.0);
       F.for_each_in_row(i, [&](int j, double f) { row[agg.of_patch[j]] = f; });
     }
     return out;
   }
+  ViewFactorMatrix out = ViewFactorMatrix::Zero(g, g);
   const bool minus = !agg.minus_of_patch.empty();
   const auto minus_of = [&](int i) { return minus ? agg.minus_of_patch[size_t(i)] : -1; };
   for (int i = 0; i < mesh.size(); ++i) {
