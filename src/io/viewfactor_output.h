@@ -9,7 +9,8 @@
 // row i = from surface i. Values are written as the shortest decimal that reads back as the same
 // double (std::to_chars: round-trip exact, at most 17 significant digits) except in the view3d
 // form, which reproduces View3D's own text output. Rows are formatted on every core (OpenMP), a
-// block of 256 at a time, and written in order.
+// block of 256 at a time, and appended in order past the page cache while the next block is
+// formatted (io/direct_append.h; the binary matrix too).
 //
 //   csv     dense: header "name,area,<name_1>,...,<name_n>", then one line per row:
 //           "<name_i>,<A_i>,F_i1,...,F_in". Names with commas or quotes are CSV-quoted.
