@@ -492,7 +492,8 @@ struct HierarchicalRadiosity::Impl {
     const Element& eq = elements_[size_t(l.source)];
     const double rho = largest(ep.reflectance);
     if (ep.cluster || eq.cluster) {
-      // Everything the link may carry is its error: split the larger end.
+      // Everything the link may carry is its error: split the larger end (splitting a cluster
+      // for a large surface instead leaves long links to big elements, dearer in the gather).
       if (rho * eq.peak * l.error <= threshold * std::max(double(l.factor), kLinkShareFloor)) return 0;
       if (p == l.source) return 3;
       const bool receiver_first = ep.longest_edge >= eq.longest_edge;
