@@ -7,6 +7,7 @@
     python3 meshes/make_meshes.py --street-canyons H OUT.vs3
     python3 meshes/make_meshes.py --street-canyon H OUT.vs3
     python3 meshes/make_meshes.py --meshed-cube N OUT.vs3
+    python3 meshes/make_meshes.py --scanned-objects K RINGS OUT.obj
 
 The second form writes room_with_table as a View3D input instead (nothing else): every quad of
 the room, the light and the table tessellated into quads of edge at most H metres, each quad its
@@ -24,7 +25,10 @@ into quads of edge at most H metres, each its own surface (H = 1: 20,800 surface
 a View3D input the same way (H = 1.6: 20,475 surfaces; H = 0.5: 201,600). Both are the "huge
 sparse matrices" benchmarks of `viewfactors --format sparse`. The last writes the unit cube room
 with each wall cut into N x N quads, each its own surface (N = 32: 6,144; the output-speed
-benchmark of `viewfactors`).
+benchmark of `viewfactors`). `--scanned-objects` writes the Cornell box with K x K bumpy spheres
+of 2 ceil(1.2 RINGS) (RINGS - 1) triangles each hung above the boxes (the hierarchical method's
+scaling benchmark: K = 5, RINGS = 20 give 22,800 triangles; K = 10, RINGS = 20, 91,200; K = 10,
+RINGS = 64, 970,200).
 
 Conventions of every generated file: metres, y up (z up in the street canyons), every face
 wound counter-clockwise seen from its front (the side that emits and receives light), so its
@@ -371,6 +375,50 @@ def write_scanned_object(path, rings=41, segments=50):
     print(f"{path}: the Cornell box and a scanned object of {len(triangles)} triangles")
 
 
+def write_scanned_objects(k, rings, path):
+    """The Cornell box with k x k closed bumpy spheres hung in a layer above the boxes."""
+    with open(os.path.join(HERE, "cornell_box.obj")) as f:
+        box = f.read()
+    first = sum(1 for line in box.splitlines() if re.match(r"v\s", line)) + 1  # OBJ index of the next vertex
+    segments = math.ceil(1.2 * rings)
+    spacing = 1.7 / k
+    radius = 0.4 * spacing
+    lines, triangles = [], 0
+    for a in range(k):
+        for b in range(k):
+            cx, cz, cy = -0.85 + spacing * (a + 0.5), -0.85 + spacing * (b + 0.5), 1.45
+            phase = 0.7 * (a * k + b)  # every object its own bumps
+
+            def point(i, j):
+                t = math.pi * i / rings
+                p = 2 * math.pi * j / segments
+                r = radius * (1 + 0.08 * math.sin(5 * t + phase) * math.sin(4 * p))
+                return (cx + r * math.sin(t) * math.cos(p), cy - r * math.cos(t), cz + r * math.sin(t) * math.sin(p))
+
+            vertices = [point(0, 0)] + [point(i, j) for i in range(1, rings) for j in range(segments)] + [point(rings, 0)]
+            ring = lambda i, j: first + 1 + (i - 1) * segments + j % segments
+            bottom, top = first, first + len(vertices) - 1
+            faces = []
+            for j in range(segments):  # outward: counter-clockwise seen from outside
+                faces.append((bottom, ring(1, j), ring(1, j + 1)))
+                faces.append((top, ring(rings - 1, j + 1), ring(rings - 1, j)))
+            for i in range(1, rings - 1):
+                for j in range(segments):
+                    p0, p1, p2, p3 = ring(i, j), ring(i, j + 1), ring(i + 1, j + 1), ring(i + 1, j)
+                    faces += [(p0, p3, p2), (p0, p2, p1)]
+            lines += [f"v {v[0]:.9g} {v[1]:.9g} {v[2]:.9g}" for v in vertices]
+            lines += ["f " + " ".join(map(str, t)) for t in faces]
+            first += len(vertices)
+            triangles += len(faces)
+    with open(path, "w") as f:
+        f.write(HEADER + f"# The Cornell box (cornell_box.obj) with {k} x {k} scanned objects (closed bumpy spheres,\n"
+                         f"# {triangles} triangles in all) hung in a layer at y = 1.45 above the boxes.\n")
+        f.write(box.rstrip("\n") + "\n")
+        f.write("usemtl shortBox\ng scannedObjects\n")
+        f.write("\n".join(lines) + "\n")
+    print(f"{path}: the Cornell box and {k * k} scanned objects of {triangles} triangles in all")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cornell-src", default=os.path.join(HERE, "..", "..", "shared", "scenes", "cornell_box"))
@@ -379,9 +427,14 @@ def main():
     parser.add_argument("--street-canyons", nargs=2, metavar=("H", "OUT"), help="write the street canyons as .vs3")
     parser.add_argument("--meshed-cube", nargs=2, metavar=("N", "OUT"), help="write the unit cube, N x N per wall, as .vs3")
     parser.add_argument("--street-canyon", nargs=2, metavar=("H", "OUT"), help="write one long street canyon as .vs3")
+    parser.add_argument("--scanned-objects", nargs=3, metavar=("K", "RINGS", "OUT"),
+                        help="write the Cornell box with K x K objects of 2 ceil(1.2 RINGS) (RINGS - 1) triangles each")
     args = parser.parse_args()
     if args.scanned_object:
         write_scanned_object(args.scanned_object)
+        return
+    if args.scanned_objects:
+        write_scanned_objects(int(args.scanned_objects[0]), int(args.scanned_objects[1]), args.scanned_objects[2])
         return
     # The View3D inputs: (option, how its first value is read, writer).
     for given, size, write in ((args.meshed_cube, int, write_meshed_cube),

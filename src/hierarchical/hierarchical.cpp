@@ -492,9 +492,12 @@ struct HierarchicalRadiosity::Impl {
     const Element& eq = elements_[size_t(l.source)];
     const double rho = largest(ep.reflectance);
     if (ep.cluster || eq.cluster) {
-      // Everything the link may carry is its error: split the larger end (splitting a cluster
+      // Everything the link may carry is its error, and it has no visibility: its estimate errs
+      // to one side (occluders ignored), so it gets no floor share of the receiver's budget
+      // (with one, a receiver's many small cluster links added up to 19% too much light on
+      // 25 objects of 912 triangles). Split the larger end (splitting a cluster
       // for a large surface instead leaves long links to big elements, dearer in the gather).
-      if (rho * eq.peak * l.error <= threshold * std::max(double(l.factor), kLinkShareFloor)) return 0;
+      if (rho * eq.peak * l.error <= threshold * double(l.factor)) return 0;
       if (p == l.source) return 3;
       const bool receiver_first = ep.longest_edge >= eq.longest_edge;
       if (receiver_first ? splittable(p) : splittable(l.source)) return receiver_first ? 1 : 2;

@@ -30,8 +30,9 @@
 //      F_pq ≈ A⊥_q A⊥_p / (A_p π r²),  A⊥ ≈ max(0, N·w) + (A − |N|)/4 for a cluster
 //    (N = Σ A n its vector area: a flat part facing along N and the rest oriented at random),
 //    and is kept only while the bound on all it may carry, ρ_p B_q^peak min(1, A_q / (π d²))
-//    (d between the boxes), is within the link's error budget; otherwise its larger end is
-//    split. So linking follows the error instead of every facing pair of roots. A cluster pushes
+//    (d between the boxes), is within ε B̄ F_pq; otherwise its larger end is split. Links that
+//    cannot carry light (normal cones turned away, a flat cluster facing away) are not made.
+//    Bright sources are still linked face to face (docs/theory.md). A cluster pushes
 //    its gathered irradiance to its parts unchanged; the vertex gather evaluates each cluster
 //    link with the output point's own normal.
 #pragma once
