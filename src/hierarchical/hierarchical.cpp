@@ -497,7 +497,10 @@ struct HierarchicalRadiosity::Impl {
       // (with one, a receiver's many small cluster links added up to 19% too much light on
       // 25 objects of 912 triangles). Split the larger end (splitting a cluster
       // for a large surface instead leaves long links to big elements, dearer in the gather).
-      if (rho * eq.peak * l.error <= threshold * double(l.factor)) return 0;
+      // Held to ε in every round, and never kept while the boxes touch (no bound) unless dark.
+      const double cluster_threshold = opt_.error * threshold_mean_;
+      if (rho * eq.peak * l.error <= cluster_threshold * double(l.factor) && (eq.peak == 0.0 || l.error < 1.0f))
+        return 0;
       if (p == l.source) return 3;
       const bool receiver_first = ep.longest_edge >= eq.longest_edge;
       if (receiver_first ? splittable(p) : splittable(l.source)) return receiver_first ? 1 : 2;
@@ -531,7 +534,8 @@ struct HierarchicalRadiosity::Impl {
   // Refines every link above the error with the present radiosity, the new links in turn,
   // until none is above it. Returns the links split.
   long long refine(double error) {
-    const double threshold = error * mean_radiosity();
+    threshold_mean_ = mean_radiosity();
+    const double threshold = error * threshold_mean_;
     long long split_count = 0;
     std::vector<int> receivers(elements_.size());
     for (size_t e = 0; e < receivers.size(); ++e) receivers[e] = int(e);
@@ -694,6 +698,7 @@ struct HierarchicalRadiosity::Impl {
   HierarchicalStats stats_;
   std::vector<int> leaf_element_;  // per leaf of the solution: its element
   int top_ = -1;                   // the cluster tree's top (a root when there is one root)
+  double threshold_mean_ = 0.0;    // B̄ of the present refinement
 };
 
 HierarchicalRadiosity::HierarchicalRadiosity(const Scene& scene, const PatchMesh& roots, const Visibility* visibility,
