@@ -146,62 +146,7 @@ TEST(Hierarchical, SmallerErrorMeansMoreLinks) {
     links = r.summary.hierarchical.links;
     EXPECT_EQ(r.summary.patches, r.summary.hierarchical.leaves);
     // The links are not reciprocal (A_p F_pq != A_q F_qp at different levels): energy is
-    // conserved only as well as the links are refined. The imbalance is the light "escaping"
-    // through leaves whose rows (their ancestors' mean factors) sum below 1: measured 0.026,
-    // 0.11 and 0.072 at ε = 0.3, 0.1, 0.03, the hierarchy refined from the top cluster.
-    std::printf("error %g: energy imbalance %.3g\n", error, r.summary.energy.relative_imbalance);
-    EXPECT_LT(r.summary.energy.relative_imbalance, 3 * error);
+    // conserved only as well as the links are refined (3.2e-2 measured at 3e-2).
+    EXPECT_LT(r.summary.energy.relative_imbalance, 2 * error);
   }
-}
-
-// Clustering in a furnace: every face is bright, and a cluster link (no visibility, an estimate
-// that may err by all it carries) is kept only where that is within its share of the budget, so
-// the self-link of the top cluster is refined down to every facing pair of roots (16 × 16 per
-// wall, elements no smaller), each linked once: the leaves are then exact to the links' rule.
-TEST(Hierarchical, ClusterLinksOfBrightSourcesAreRefinedToEveryFacingPairOnce) {
-  const pm::Scene cube = builders::unit_cube(0.5, 1.0);
-  pm::PatchingOptions fine;
-  fine.max_edge = 1.0 / 16;
-  const pm::PatchMesh roots = pm::subdivide(cube, fine);
-  ASSERT_EQ(roots.size(), 6 * 256);
-  const pm::DirectLighting lights(cube);
-  pm::HierarchicalOptions o;
-  o.error = 0.1;
-  o.min_edge = 1.0 / 16;
-  pm::HierarchicalRadiosity h(cube, roots, nullptr, lights, o);
-  const pm::HierarchicalSolution s = h.solve();
-  EXPECT_EQ(s.stats.clusters, roots.size() - 1);
-  const long long facing_pairs = 5LL * 256 * roots.size();  // every root sees the other five walls
-  std::printf("furnace, %d roots, error %g: %lld links evaluated, %lld links (%lld facing root pairs)\n", roots.size(),
-              o.error, s.stats.links_evaluated, s.stats.links, facing_pairs);
-  EXPECT_EQ(s.stats.links, facing_pairs);
-  double worst = 0.0;
-  for (long i = 0; i < s.radiosity.rows(); ++i) worst = std::max(worst, std::abs(s.radiosity(i, 0) - 2.0) / 2.0);
-  std::printf("worst relative error of a leaf: %.3g\n", worst);
-  EXPECT_LT(worst, 1e-5);
-}
-
-// A closed convex box seen from outside: none of its faces sees another, so every leaf's
-// irradiance is 0. Cluster links between its parts are refined until their normal cones, the
-// planes of flat clusters or the facing test of two surfaces show that they exchange nothing.
-TEST(Hierarchical, TheFacesOfAConvexObjectDoNotLightEachOther) {
-  pm::Scene box = builders::unit_cube(0.5, 1.0);
-  box.vertices.clear();
-  box.faces.clear();
-  builders::add_box(box, pm::Vec3(0, 0, 0), pm::Vec3(1, 1, 1), 0);
-  pm::PatchingOptions fine;
-  fine.max_edge = 1.0 / 16;
-  const pm::PatchMesh roots = pm::subdivide(box, fine);
-  const pm::DirectLighting lights(box);
-  pm::HierarchicalOptions o;
-  o.error = 0.1;
-  o.min_edge = 1.0 / 16;
-  pm::HierarchicalRadiosity h(box, roots, nullptr, lights, o);
-  const pm::HierarchicalSolution s = h.solve();
-  std::printf("convex box, %d roots: %lld links evaluated, %lld links, largest irradiance %.3g\n", roots.size(),
-              s.stats.links_evaluated, s.stats.links, s.irradiance.maxCoeff());
-  // Measured: 17,072 evaluated, about 11 per root.
-  EXPECT_LT(s.stats.links_evaluated, 12LL * roots.size());
-  EXPECT_EQ(s.stats.links, 0);
-  EXPECT_EQ(s.irradiance.maxCoeff(), 0.0);
 }

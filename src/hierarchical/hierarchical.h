@@ -24,17 +24,8 @@
 //    relative tolerance.
 //  - Refine with the solution, solve again, until no link needs refinement (rounds).
 //
-//  - Clustering (Smits, Arvo & Greenberg, SIGGRAPH 1994; Sillion, IEEE TVCG 1995): a binary
-//    tree of clusters over the roots (median splits of their centroids). Linking starts from the
-//    top cluster's link to itself. A link with a cluster at either end carries the estimate
-//      F_pq ≈ A⊥_q A⊥_p / (A_p π r²),  A⊥ ≈ max(0, N·w) + (A − |N|)/4 for a cluster
-//    (N = Σ A n its vector area: a flat part facing along N and the rest oriented at random),
-//    and is kept only while the bound on all it may carry, ρ_p B_q^peak min(1, A_q / (π d²))
-//    (d between the boxes), is within ε B̄ F_pq; otherwise its larger end is split. Links that
-//    cannot carry light (normal cones turned away, a flat cluster facing away) are not made.
-//    Bright sources are still linked face to face (docs/theory.md). A cluster pushes
-//    its gathered irradiance to its parts unchanged; the vertex gather evaluates each cluster
-//    link with the output point's own normal.
+// What is not here yet: clustering (Smits, Arvo & Greenberg 1994), so the initial links are
+// every facing pair of root patches, quadratic in the input faces.
 #pragma once
 
 #include <functional>
@@ -70,7 +61,6 @@ struct HierarchicalOptions {
 
 struct HierarchicalStats {
   int roots = 0, elements = 0, leaves = 0;
-  int clusters = 0;               // nodes of the cluster tree over the roots (roots − 1)
   long long links = 0;            // links of the final hierarchy
   long long links_evaluated = 0;  // link form factors computed, refined ones included
   int rounds = 0;                 // refine–solve rounds
@@ -111,10 +101,10 @@ class HierarchicalRadiosity {
   // H(x) without the analytic lights, for a point x on leaf `leaf` (an index into the solution's
   // leaves): Σ over the links of the leaf and its ancestors of F_vis(dA_x -> q) B_q (Baum,
   // Rushmeier & Winget 1989's vertex gather, over the links instead of every patch). Each
-  // link's source is seen from x itself: Lambert's factor, clipped against the occluders in its
-  // shaft from x when they are few (32 at most), else times the link's visible share
-  // (refinement bounds how much that share varies over the link's receiver). Cluster links use
-  // their estimate with x's normal. Thread-safe after solve(); `tally` collects ray counts.
+  // link's source is seen from x itself: Lambert's factor; where the link's shaft held an
+  // occluder, clipped against the occluders in the shaft from x when they are few (32 at most),
+  // else times the link's visible share (refinement bounds how much that share varies over the
+  // link's receiver). Thread-safe after solve(); `tally` collects ray counts.
   Rgb irradiance_at(const Receiver& x, int leaf, RayTally& tally, long long& links_gathered) const;
 
  private:
