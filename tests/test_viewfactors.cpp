@@ -158,6 +158,30 @@ TEST(ViewFactors, GroupAggregationGivesTheWallMatrix) {
   EXPECT_LE((aggregate(r.F, r.mesh, faces) - G).cwiseAbs().maxCoeff(), 1e-15);
 }
 
+// The consuming aggregate: one patch per output surface hands the patch matrix over (no copy,
+// the source left 0 × 0); anything else falls back to the weighted sum, with the same values.
+TEST(ViewFactors, ConsumingAggregationHandsOverOnlyTheIdentityPartition) {
+  const PatchViewFactors r = cube_factors(2);
+  const Aggregation patches = make_aggregation(builders::unit_cube(), r.mesh, AggregateLevel::Patch);
+  FormFactors moved = r.F;
+  const double* entries = moved.dense_double_row(0);
+  ASSERT_NE(entries, nullptr);
+  const ViewFactorMatrix P = aggregate(std::move(moved), r.mesh, patches);
+  EXPECT_EQ(P.data(), entries);  // the same memory, not a copy
+  EXPECT_EQ(moved.rows(), 0);    // NOLINT(bugprone-use-after-move): left empty on purpose
+  EXPECT_EQ(P, aggregate(r.F, r.mesh, patches));
+
+  const Aggregation faces = make_aggregation(builders::unit_cube(), r.mesh, AggregateLevel::Face);
+  FormFactors kept = r.F;
+  const ViewFactorMatrix G = aggregate(std::move(kept), r.mesh, faces);
+  EXPECT_EQ(G.rows(), 6);
+  EXPECT_EQ(kept.rows(), r.F.rows());  // NOLINT(bugprone-use-after-move): the fallback only reads
+  EXPECT_EQ(G, aggregate(r.F, r.mesh, faces));
+
+  FormFactors sparse(4, MatrixLayout::Sparse, MatrixPrecision::Double);
+  EXPECT_THROW(sparse.release_dense_double(), std::logic_error);
+}
+
 TEST(ViewFactors, EnforcementBothGivesSymmetricAFAndUnitRows) {
   const PatchViewFactors r = cube_factors(4);
   const Aggregation agg = make_aggregation(builders::unit_cube(), r.mesh, AggregateLevel::Patch);

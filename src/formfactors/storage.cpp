@@ -75,16 +75,24 @@ MatrixLayout choose_layout(MatrixLayout requested, MatrixPrecision precision, do
              : MatrixLayout::Dense;
 }
 
-template <class T>
-FormFactors::DenseBlock<T> FormFactors::allocate_dense(int n) {
-  const size_t count = size_t(n) * size_t(n), bytes = count * sizeof(T);
+FormFactorMatrix FormFactors::allocate_dense_double(int n) {
+  FormFactorMatrix m(n, n);  // uninitialised: not a page is touched yet
+  // Huge pages for the N² entries that the fill writes and every solver sweep streams.
+  advise_huge_pages(m.data(), sizeof(double) * size_t(m.size()));
+  // Zeroed row by row on every core: the page faults (the kernel clears each page) are shared.
+#pragma omp parallel for schedule(static)
+  for (int i = 0; i < n; ++i) std::memset(m.data() + size_t(i) * size_t(n), 0, sizeof(double) * size_t(n));
+  return m;
+}
+
+FormFactors::FloatBlock FormFactors::allocate_dense_float(int n) {
+  const size_t count = size_t(n) * size_t(n);
   // calloc, not malloc + memset: glibc serves a large block with fresh pages from mmap, which
   // the kernel zeroes on first touch (during the fill, on every thread), so nothing is written
   // twice. Small blocks are zeroed by calloc itself.
-  DenseBlock<T> block(static_cast<T*>(std::calloc(std::max<size_t>(count, 1), sizeof(T))));
+  FloatBlock block(static_cast<float*>(std::calloc(std::max<size_t>(count, 1), sizeof(float))));
   if (!block) throw std::bad_alloc();
-  // Huge pages for the N² entries that the fill writes and every solver sweep streams.
-  advise_huge_pages(block.get(), bytes);
+  advise_huge_pages(block.get(), count * sizeof(float));
   return block;
 }
 
@@ -92,17 +100,14 @@ FormFactors::FormFactors(const FormFactors& other)
     : n_(other.n_),
       layout_(other.layout_),
       precision_(other.precision_),
+      dense_double_(other.dense_double_),
       columns_(other.columns_),
       values_double_(other.values_double_),
       values_float_(other.values_float_) {
-  auto copy = [n = n_](const auto& from, auto& to) {
-    using T = std::remove_reference_t<decltype(*from.get())>;
-    if (!from) return;
-    to = allocate_dense<T>(n);
-    std::memcpy(to.get(), from.get(), size_t(n) * size_t(n) * sizeof(T));
-  };
-  copy(other.dense_double_, dense_double_);
-  copy(other.dense_float_, dense_float_);
+  if (other.dense_float_) {
+    dense_float_ = allocate_dense_float(n_);
+    std::memcpy(dense_float_.get(), other.dense_float_.get(), size_t(n_) * size_t(n_) * sizeof(float));
+  }
 }
 
 FormFactors& FormFactors::operator=(const FormFactors& other) {
@@ -116,8 +121,8 @@ FormFactors::FormFactors(int n, MatrixLayout layout, MatrixPrecision precision)
   if (precision == MatrixPrecision::Auto)
     throw std::logic_error("FormFactors: resolve the precision before allocating");
   if (layout == MatrixLayout::Dense) {
-    if (precision == MatrixPrecision::Double) dense_double_ = allocate_dense<double>(n);
-    else dense_float_ = allocate_dense<float>(n);
+    if (precision == MatrixPrecision::Double) dense_double_ = allocate_dense_double(n);
+    else dense_float_ = allocate_dense_float(n);
     return;
   }
   columns_.resize(n);
@@ -126,8 +131,15 @@ FormFactors::FormFactors(int n, MatrixLayout layout, MatrixPrecision precision)
 }
 
 FormFactors::FormFactors(FormFactorMatrix dense)
-    : n_(static_cast<int>(dense.rows())), dense_double_(allocate_dense<double>(n_)) {
-  Eigen::Map<FormFactorMatrix>(dense_double_.get(), n_, n_) = dense;
+    : n_(static_cast<int>(dense.rows())), dense_double_(std::move(dense)) {}
+
+FormFactorMatrix FormFactors::release_dense_double() {
+  if (layout_ != MatrixLayout::Dense || precision_ != MatrixPrecision::Double)
+    throw std::logic_error("FormFactors::release_dense_double: the matrix is not dense double");
+  FormFactorMatrix out = std::move(dense_double_);
+  dense_double_ = FormFactorMatrix();
+  n_ = 0;
+  return out;
 }
 
 std::string FormFactors::description() const {
@@ -147,7 +159,7 @@ long long FormFactors::nonzeros() const {
   const size_t entries = size_t(n_) * size_t(n_);
   if (precision_ == MatrixPrecision::Double)
     return static_cast<long long>(
-        std::count_if(dense_double_.get(), dense_double_.get() + entries, [](double f) { return f != 0.0; }));
+        std::count_if(dense_double_.data(), dense_double_.data() + entries, [](double f) { return f != 0.0; }));
   return static_cast<long long>(
       std::count_if(dense_float_.get(), dense_float_.get() + entries, [](float f) { return f != 0.0f; }));
 }
@@ -232,8 +244,7 @@ void FormFactors::add_row_to(int i, double alpha, Eigen::VectorXd& y) const {
 }
 
 FormFactorMatrix FormFactors::to_dense() const {
-  if (layout_ == MatrixLayout::Dense && precision_ == MatrixPrecision::Double)
-    return Eigen::Map<const FormFactorMatrix>(dense_double_.get(), n_, n_);
+  if (layout_ == MatrixLayout::Dense && precision_ == MatrixPrecision::Double) return dense_double_;
   if (layout_ == MatrixLayout::Dense)
     return Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(dense_float_.get(),
                                                                                                    n_, n_)

@@ -70,7 +70,12 @@ class FormFactors {
   void set_row(int i, const double* values);
   // Dense double only: row i's n entries, written in place by the fill (saves a row buffer and
   // its copy); nullptr for the other layouts. set_row(i, dense_double_row(i)) is a no-op.
-  double* dense_double_row(int i) { return dense_double_ && layout_ == MatrixLayout::Dense ? ddata(i) : nullptr; }
+  double* dense_double_row(int i) {
+    return layout_ == MatrixLayout::Dense && precision_ == MatrixPrecision::Double ? ddata(i) : nullptr;
+  }
+  // Dense double only (std::logic_error otherwise): hands the N × N entries over without a copy
+  // (the view-factor output of one patch per surface is F itself) and leaves this 0 × 0.
+  FormFactorMatrix release_dense_double();
 
   // F_ij (sparse: binary search in row i). Inline: the checks read every entry of a dense F.
   double operator()(int i, int j) const {
@@ -99,19 +104,20 @@ class FormFactors {
   int n_ = 0;
   MatrixLayout layout_ = MatrixLayout::Dense;
   MatrixPrecision precision_ = MatrixPrecision::Double;
-  // Dense entries, row-major (F_ij at i·N + j), from calloc: a large block is fresh zero pages
-  // from the kernel, so nothing is written before the fill (see storage.cpp, allocate_dense).
+  // Dense entries, row-major (F_ij at i·N + j). Double: an Eigen matrix, so that it can be handed
+  // over whole (release_dense_double), zeroed on every core at allocation. Float: from calloc, a
+  // large block is fresh zero pages from the kernel, so nothing is written before the fill.
   struct FreeDeleter {
     void operator()(void* p) const { std::free(p); }
   };
-  template <class T>
-  using DenseBlock = std::unique_ptr<T[], FreeDeleter>;
-  template <class T>
-  static DenseBlock<T> allocate_dense(int n);
-  DenseBlock<double> dense_double_;
-  DenseBlock<float> dense_float_;
+  using FloatBlock = std::unique_ptr<float[], FreeDeleter>;
+  static FormFactorMatrix allocate_dense_double(int n);
+  static FloatBlock allocate_dense_float(int n);
+  FormFactorMatrix dense_double_;
+  FloatBlock dense_float_;
   double sparse_entry(int i, int j) const;
-  double* ddata(int i) const { return dense_double_.get() + size_t(i) * size_t(n_); }
+  double* ddata(int i) { return dense_double_.data() + size_t(i) * size_t(n_); }
+  const double* ddata(int i) const { return dense_double_.data() + size_t(i) * size_t(n_); }
   float* fdata(int i) const { return dense_float_.get() + size_t(i) * size_t(n_); }
   std::vector<std::vector<int32_t>> columns_;  // sparse: per row, ascending columns
   std::vector<std::vector<double>> values_double_;

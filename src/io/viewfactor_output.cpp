@@ -7,6 +7,7 @@
 #include <charconv>
 #include <cstdint>
 #include <cstdio>
+#include <exception>
 #include <fstream>
 #include <stdexcept>
 
@@ -39,26 +40,41 @@ void append_printf_like(std::string& out, double v, std::chars_format format, in
   out.append(buf, size_t(std::to_chars(buf, buf + sizeof buf, v, format, precision).ptr - buf));
 }
 
-// Rows 0 .. rows-1 formatted by format_row(i, text) on every core, a block of rows at a time,
-// and appended in order past the page cache while the next block is formatted. A full disk
-// stops the run at the next 8 MiB written.
+// Rows 0 .. rows-1 formatted by format_row(i, text) on every core and appended in row order past
+// the page cache: a thread appends its row (OpenMP `ordered`) while the others format theirs, so
+// the copy into the write buffers overlaps the formatting instead of following it. A failed
+// write (a full disk) stops the formatting at the next row and is rethrown here.
 template <class FormatRow>
 void write_rows(AtomicOutput& atomic, int rows, const FormatRow& format_row,
                 const std::function<void(double)>& progress = nullptr) {
-  constexpr int kBlock = 256;
-  std::vector<std::string> text(size_t(std::min(rows, kBlock)));
-  // Past the page cache, a thread writing while the next block is formatted (direct_append.h).
   DirectAppender out(atomic);
-  for (int first = 0; first < rows; first += kBlock) {
-    const int count = std::min(kBlock, rows - first);
-#pragma omp parallel for schedule(dynamic, 1)
-    for (int k = 0; k < count; ++k) {
-      text[size_t(k)].clear();
-      format_row(first + k, text[size_t(k)]);
+  const int progress_every = std::max(1, rows / 256);
+  std::exception_ptr failure;  // set and read inside the ordered region only
+  bool failed = false;
+#pragma omp parallel
+  {
+    std::string text;
+#pragma omp for ordered schedule(dynamic, 1)
+    for (int i = 0; i < rows; ++i) {
+      bool skip;
+#pragma omp atomic read
+      skip = failed;
+      text.clear();
+      if (!skip) format_row(i, text);
+#pragma omp ordered
+      {
+        if (!failure) try {
+            out.append(text.data(), text.size());
+            if (progress && ((i + 1) % progress_every == 0 || i + 1 == rows)) progress(double(i + 1) / rows);
+          } catch (...) {
+            failure = std::current_exception();
+#pragma omp atomic write
+            failed = true;
+          }
+      }
     }
-    for (int k = 0; k < count; ++k) out.append(text[size_t(k)].data(), text[size_t(k)].size());
-    if (progress) progress(double(first + count) / rows);
   }
+  if (failure) std::rethrow_exception(failure);
   out.finish();
 }
 
@@ -152,15 +168,19 @@ SparseWriteStats write_view_factors(AtomicOutput& atomic, ViewFactorFormat forma
         write_rows(
             atomic, n,
             [&](int i, std::string& row) {
-              row.reserve(size_t(n) * 12);
               row = csv_cell(names[size_t(i)]);
               row.push_back(',');
               append_shortest(row, areas[size_t(i)]);
+              // Straight into the row's memory: a shortest double takes at most 24 characters.
+              const size_t start = row.size();
+              row.resize(start + size_t(n) * 25 + 1);
+              char* p = row.data() + start;
               for (int j = 0; j < n; ++j) {
-                row.push_back(',');
-                append_shortest(row, F(i, j));
+                *p++ = ',';
+                p = std::to_chars(p, p + 24, F(i, j)).ptr;
               }
-              row.push_back('\n');
+              *p++ = '\n';
+              row.resize(size_t(p - row.data()));
             },
             progress);
         break;

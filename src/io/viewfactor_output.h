@@ -63,7 +63,8 @@ struct View3dOutput {
 // Writes F into `out`'s temporary file (not committed). Throws Error(Io) naming out.target()
 // when it cannot be written. `threshold` only applies to Sparse; `view3d` only to View3d.
 // Returns the drop statistics (all zero for the dense forms). `progress` (optional) is called with
-// the fraction of rows written, after each block (from the calling thread).
+// the fraction of rows written, about every 1/256 of the rows (one call at a time, from any of
+// the formatting threads).
 SparseWriteStats write_view_factors(AtomicOutput& out, ViewFactorFormat format, const std::vector<std::string>& names,
                                     const std::vector<double>& areas, const ViewFactorRows& F, double threshold = 0.0,
                                     const View3dOutput& view3d = {},

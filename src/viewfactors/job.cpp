@@ -204,8 +204,6 @@ void fill_result(ViewFactorJobResult& res, const Scene& scene, const PatchViewFa
   res.areas = agg.areas;
   res.visibility_mode = r.visibility_mode;
   res.visibility_reason = r.visibility_reason;
-  res.matrix_storage = r.streamed ? "streamed" : r.F.description();
-  res.matrix_bytes = r.F.bytes();
   res.memory = r.memory;
   res.fill = r.fill;
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -267,7 +265,9 @@ ViewFactorJobResult run_view_factor_job(const ViewFactorJob& job) {
       streamed.emplace(main_out, agg, job.threshold);
       return [&streamed](int i, const double* row) { return streamed->add(i, row); };
     };
-  const PatchViewFactors r = compute_view_factors(scene, opt);
+  PatchViewFactors r = compute_view_factors(scene, opt);
+  res.matrix_storage = r.streamed ? "streamed" : r.F.description();
+  res.matrix_bytes = r.F.bytes();
   opt.row_sink_for = nullptr;  // (it refers to this frame)
   if (scene.settings.contains("view3d")) res.view3d_control = view3d_control_notes(scene.settings["view3d"], res.job);
   const Aggregation agg = make_aggregation(scene, r.mesh, job.level);
@@ -280,7 +280,7 @@ ViewFactorJobResult run_view_factor_job(const ViewFactorJob& job) {
     fill_result(res, scene, r, agg, t0);
     return res;
   }
-  res.F = aggregate(r.F, r.mesh, agg);
+  res.F = aggregate(std::move(r.F), r.mesh, agg);
   // As View3D (its main program): the enclosure adjustment of the geometric factors first, then
   // the emissivities (IntFac).
   if (job.enforcement != Enforcement::None) res.enforcement_report = enforce(res.F, agg.areas, job.enforcement);

@@ -289,6 +289,18 @@ ViewFactorMatrix aggregate(const FormFactors& F, const PatchMesh& mesh, const Ag
   return out;
 }
 
+ViewFactorMatrix aggregate(FormFactors&& F, const PatchMesh& mesh, const Aggregation& agg) {
+  const auto in_patch_order = [&] {
+    for (int i = 0; i < mesh.size(); ++i)
+      if (agg.of_patch[size_t(i)] != i) return false;
+    return true;
+  };
+  if (agg.size() == mesh.size() && agg.minus_of_patch.empty() && agg.mask_of_patch.empty() &&
+      F.layout() == MatrixLayout::Dense && F.precision() == MatrixPrecision::Double && in_patch_order())
+    return F.release_dense_double();
+  return aggregate(static_cast<const FormFactors&>(F), mesh, agg);
+}
+
 MatrixChecks check_matrix(const ViewFactorMatrix& F, const std::vector<double>& areas) {
   MatrixChecks c;
   const int n = static_cast<int>(F.rows());

@@ -99,6 +99,8 @@ struct ViewFactorOptions {
 //   matrix_bytes    = the N × N patch matrix in `storage` (storage.h matrix_bytes())
 //   output_bytes    = 8 G² (aggregated matrix) × (1 + 4 with enforcement + 3 with exchange
 //                     factors) + 8 P G (points)
+// An upper bound: where every surface is one patch and the patch matrix is dense double, the
+// first output matrix is the patch matrix itself (aggregate(FormFactors&&, ...)), not a copy.
 struct ViewFactorMemory {
   MemoryEstimate patches;      // pipeline/memory.h: facing pairs, per-patch bytes
   int surfaces = 0;            // G, rows of the output
@@ -150,6 +152,9 @@ struct Aggregation {
 Aggregation make_aggregation(const Scene& scene, const PatchMesh& mesh, AggregateLevel level);
 // F_IJ of the formula above; G × G.
 ViewFactorMatrix aggregate(const FormFactors& F, const PatchMesh& mesh, const Aggregation& agg);
+// The same, consuming F: where every surface is one patch, in patch order, and F is dense double,
+// F's entries are the result, handed over without a copy (F is left 0 × 0); otherwise as above.
+ViewFactorMatrix aggregate(FormFactors&& F, const PatchMesh& mesh, const Aggregation& agg);
 
 // Checks of a view-factor matrix with surface areas `areas` (size n).
 struct MatrixChecks {
