@@ -93,8 +93,8 @@ Command add_viewfactors_command(CLI::App& app) {
                   "Sparse output: drop factors below this (the summary reports the dropped row sums)")
       ->check(options::real_in(0, 1));
   sub->add_option("--stream", a->stream,
-                  "Sparse output by face or patch: write rows while they are filled, never holding the matrix: auto "
-                  "(default: when the matrix would not fit the memory limit), yes or no");
+                  "By face or patch, one patch per face: write rows while they are filled, never holding the matrix "
+                  "(no reciprocity check): auto (default: when the matrix would not fit the memory limit), yes or no");
   sub->add_option("--enforce", a->enforce, "none (default), reciprocity, closure or both (closed enclosures)");
   sub->add_option("--points", a->points,
                   "Points with normals (.json or .csv): factors from each point to each surface");

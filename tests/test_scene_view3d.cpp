@@ -59,6 +59,19 @@ TEST(View3dInput, ReadsTheManualCube) {
   EXPECT_GT(polygon_normal(s.face_polygon(0)).z(), 0.9);
 }
 
+// Repeated surface names stay separate surfaces: "#<surface number>" is appended, then "#" until
+// the name is free (here surface 4's "a#4" is surface 3's name, so surface 4 becomes "a#4#").
+TEST(View3dInput, RepeatedSurfaceNamesBecomeSeparateGroups) {
+  std::ifstream in(data + "view3d_cube.vs3");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  for (const auto& [from, to] : {std::pair{"floor", "a"}, {"ceiling", "a"}, {"south", "a#4"}, {"east", "a"}})
+    text.replace(text.find(from), std::string(from).size(), to);
+  const Scene s = load_scene(write_temp("names.vs3", text));
+  ASSERT_EQ(s.faces.size(), 6u);
+  EXPECT_EQ(s.groups, (std::vector<std::string>{"a", "a#2", "a#4", "a#4#", "north", "west"}));
+  for (int f = 0; f < 6; ++f) EXPECT_EQ(s.faces[size_t(f)].group, f);
+}
+
 TEST(View3dInput, ObstructionOnlySurfaceBlocksButHasNoPatches) {
   const Scene s = load_scene(data + "view3d_obstructed.vs3");
   ASSERT_EQ(s.faces.size(), 3u);

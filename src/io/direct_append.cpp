@@ -88,7 +88,16 @@ void DirectAppender::writer_loop() {
     writing_ = true;
     const bool skip = error_ != 0;
     lock.unlock();
-    if (!skip) write_buffer(b, b.used);
+    if (!skip) {
+      write_buffer(b, b.used);
+      // The disk's cache flushed while the next rows are formatted, so that commit()'s fsync
+      // finds little left to flush (on this project's VM a flush of 700 MB takes 0.4–0.5 s).
+      unsynced_ += b.used;
+      if (unsynced_ >= kSyncEveryBytes) {
+        ::fdatasync(plain_fd_);  // (its failure shows again in commit()'s fsync)
+        unsynced_ = 0;
+      }
+    }
     lock.lock();
     writing_ = false;
     free_.push_back(b.data);

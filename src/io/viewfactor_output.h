@@ -8,9 +8,9 @@
 // Inputs everywhere: `names` and `areas` (m²) of the n surfaces, F an n × n row-major matrix,
 // row i = from surface i. Values are written as the shortest decimal that reads back as the same
 // double (std::to_chars: round-trip exact, at most 17 significant digits) except in the view3d
-// form, which reproduces View3D's own text output. Rows are formatted on every core (OpenMP), a
-// block of 256 at a time, and appended in order past the page cache while the next block is
-// formatted (io/direct_append.h; the binary matrix too).
+// form, which reproduces View3D's own text output. Rows are formatted on every core (OpenMP) and
+// appended in row order past the page cache (io/direct_append.h; the binary matrix too), one
+// thread appending while the others format.
 //
 //   csv     dense: header "name,area,<name_1>,...,<name_n>", then one line per row:
 //           "<name_i>,<A_i>,F_i1,...,F_in". Names with commas or quotes are CSV-quoted.
@@ -30,6 +30,7 @@
 #include <Eigen/Core>
 #include <functional>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -48,6 +49,12 @@ struct SparseWriteStats {
   double max_dropped_row_sum = 0;  // largest Σ_j of dropped F_ij in one row
   int worst_row = 0;               // that row
   double total_dropped = 0;        // Σ over all dropped entries
+};
+
+// One row's share of SparseWriteStats (the sparse form's drops; zero for the others).
+struct RowDrops {
+  double dropped = 0.0;  // Σ of the dropped entries
+  long long dropped_count = 0, written = 0;
 };
 
 // What the view3d form writes besides the matrix.
@@ -70,33 +77,34 @@ SparseWriteStats write_view_factors(AtomicOutput& out, ViewFactorFormat format, 
                                     const View3dOutput& view3d = {},
                                     const std::function<void(double)>& progress = nullptr);
 
-// The sparse form written while its rows are computed (`viewfactors --format sparse`, streamed):
-// the same bytes as write_view_factors(Sparse) of the whole matrix, but no row is held after it
-// is written, so memory follows the rows in flight instead of n². The "# surface" lines and the
-// "i,j,F" header are written at construction; add_row() may be called from any thread, once per
-// row, in any order: the row is formatted on the calling thread, then written as soon as every
-// row before it is (rows that arrive early wait, formatted, in memory).
-class SparseRowStream {
+// The matrix written while its rows are computed (`viewfactors --stream`), in any form: the same
+// bytes as write_view_factors of the whole matrix, but no row is held after it is written, so
+// memory follows the rows in flight instead of n². What comes before the rows is written at
+// construction; add_row() may be called from any thread, once per row, in any order: the row is
+// formatted on the calling thread, then appended (past the page cache, io/direct_append.h) as
+// soon as every row before it is (rows that arrive early wait, formatted, in memory).
+class ViewFactorRowStream {
  public:
-  // `out` must outlive this object; threshold as write_view_factors.
-  SparseRowStream(AtomicOutput& out, const std::vector<std::string>& names, const std::vector<double>& areas,
-                  double threshold);
+  // `out`, `names` and `areas` must outlive this object; the rest as write_view_factors.
+  ViewFactorRowStream(AtomicOutput& out, ViewFactorFormat format, const std::vector<std::string>& names,
+                      const std::vector<double>& areas, double threshold = 0.0, const View3dOutput& view3d = {});
+  ~ViewFactorRowStream();
   // Row i's n entries (F_ij, j = 0 .. n-1). Throws Error(Io) naming the file when writing fails.
   void add_row(int i, const double* F_row);
-  // Checks that every row arrived (std::logic_error otherwise) and returns the drop statistics,
-  // equal to write_view_factors'.
+  // Checks that every row arrived (std::logic_error otherwise), writes what follows the rows and
+  // returns the drop statistics, equal to write_view_factors'. Throws Error(Io) as add_row.
   SparseWriteStats finish();
 
  private:
+  struct State;  // the form's writer and the appender (viewfactor_output.cpp)
   struct Row {
     std::string text;
-    double dropped = 0.0;
-    long long dropped_count = 0, written = 0;
+    RowDrops drops;
   };
   void write_in_order(Row row, int i);  // with mutex_ held
   AtomicOutput& out_;
   int n_;
-  double threshold_;
+  std::unique_ptr<State> state_;
   std::mutex mutex_;
   int next_ = 0;                // the next row to write
   std::map<int, Row> waiting_;  // rows formatted before their turn

@@ -186,8 +186,14 @@ RawScene read_view3d(const std::string& path, const LoadOptions& options) {
     face.vertices = std::move(vertices);
     if (group < 0) {  // not combined, not null: a group of its own
       if (name.empty()) name = rec + std::to_string(n);
-      if (!names.insert(name).second) name.append(1, '#').append(std::to_string(n));  // keep group names unique
-      group = add_group(s, name);
+      // Group names stay unique (a repeated name gets "#<surface number>", then "#" until free),
+      // so the group is new: no search of the earlier ones (quadratic in a file of 10⁵ surfaces).
+      if (!names.insert(name).second) {
+        name.append(1, '#').append(std::to_string(n));
+        while (!names.insert(name).second) name.push_back('#');
+      }
+      s.groups.push_back(name);
+      group = static_cast<int>(s.groups.size()) - 1;
     }
     face.material = material;
     face.group = group;

@@ -58,13 +58,16 @@ bool view3d_asks_for_exchange_factors(const std::string& path, const Scene& scen
   return it != control.end() && it->is_number() && it->get<double>() != 0.0;
 }
 
-// The rows of a streamed fill (ViewFactorOptions::row_sink_for) into the sparse output: each
-// patch row permuted into output order, checked (its sum as check_matrix sums it, the entry
-// extremes) and handed to the SparseRowStream. A failure to write is kept, and stops the fill.
+// The rows of a streamed fill (ViewFactorOptions::row_sink_for) into the output: each patch row
+// permuted into output order, checked (its sum as check_matrix sums it, the entry extremes) and
+// handed to the ViewFactorRowStream. A failure to write is kept, and stops the fill.
 class StreamedRows {
  public:
-  StreamedRows(AtomicOutput& out, const Aggregation& agg, double threshold)
-      : writer_(out, agg.names, agg.areas, threshold),
+  StreamedRows(AtomicOutput& out, ViewFactorFormat format, const Aggregation& agg, double threshold,
+               const View3dOutput& view3d)
+      : names_(agg.names),
+        areas_(agg.areas),
+        writer_(out, format, names_, areas_, threshold, view3d),
         of_patch_(agg.of_patch),
         patch_of_(agg.of_patch.size(), -1),
         row_sums_(agg.of_patch.size(), 0.0) {
@@ -110,7 +113,9 @@ class StreamedRows {
   }
 
  private:
-  SparseRowStream writer_;
+  std::vector<std::string> names_;  // the writer's (it keeps references)
+  std::vector<double> areas_;
+  ViewFactorRowStream writer_;
   std::vector<int> of_patch_, patch_of_;
   bool identity_ = true;
   std::vector<double> row_sums_;  // per output row
@@ -257,14 +262,19 @@ ViewFactorJobResult run_view_factor_job(const ViewFactorJob& job) {
   if (res.exchange_factors && all_zero(view3d_emissivities(job.scene)))  // before the fill
     throw_bad_input(job.scene + no_emissivity);
 
-  // The sparse form can be written while the rows are filled (compute_view_factors decides).
+  // Every form can be written while the rows are filled (compute_view_factors decides). A
+  // streamed run has neither enforcement nor exchange factors: View3D's header says 0 and 0.
   std::optional<StreamedRows> streamed;
   opt.stream = job.stream;
-  if (job.format == ViewFactorFormat::Sparse)
-    opt.row_sink_for = [&](const PatchMesh&, const Aggregation& agg) -> std::function<bool(int, const double*)> {
-      streamed.emplace(main_out, agg, job.threshold);
-      return [&streamed](int i, const double* row) { return streamed->add(i, row); };
-    };
+  opt.row_sink_for = [&](const PatchMesh& mesh, const Aggregation& agg) -> std::function<bool(int, const double*)> {
+    View3dOutput v3;
+    if (job.format == ViewFactorFormat::View3d) {
+      res.emissivities = view3d_emissivities_of(job.scene, scene, mesh, agg);
+      v3.emissivities = res.emissivities;
+    }
+    streamed.emplace(main_out, job.format, agg, job.threshold, v3);
+    return [&streamed](int i, const double* row) { return streamed->add(i, row); };
+  };
   PatchViewFactors r = compute_view_factors(scene, opt);
   res.matrix_storage = r.streamed ? "streamed" : r.F.description();
   res.matrix_bytes = r.F.bytes();

@@ -46,7 +46,11 @@ nlohmann::json viewfactor_summary_json(const ViewFactorJobResult& r) {
                      {"emissivities", r.emissivities},
                      {"geometric_checks", checks_json(r.geometric_checks, r.names)}};
   const ViewFactorMemory& m = r.memory;
-  j["matrix"] = {{"storage", r.matrix_storage}, {"reason", m.storage_reason}, {"bytes", r.matrix_bytes}};
+  j["matrix"] = {{"storage", r.matrix_storage},
+                 {"reason", m.storage_reason},
+                 {"bytes", r.matrix_bytes},
+                 {"streamed", r.streamed},
+                 {"stream_reason", r.stream_reason}};
   j["memory_estimate"] = {{"estimated_bytes", m.estimated_bytes},
                           {"matrix_bytes", m.matrix_bytes},
                           {"output_bytes", m.output_bytes},

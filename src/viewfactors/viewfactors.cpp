@@ -85,7 +85,7 @@ void check_streamed(const MemoryEstimate& estimate, double patches, double surfa
 
 // Why the fill cannot stream its rows ("" when it can, before patching: `mesh` null).
 std::string why_not_streamed(const ViewFactorOptions& opt, const Aggregation* agg, int patches) {
-  if (!opt.row_sink_for) return "the output needs the whole matrix (--format sparse streams)";
+  if (!opt.row_sink_for) return "the caller needs the whole matrix (no row sink)";
   if (opt.level == AggregateLevel::Group) return "--by group sums rows of several patches";
   if (opt.enforcement) return "--enforce needs the whole matrix";
   if (opt.exchange_factors) return "C emit=1 (exchange factors) needs the whole matrix";
