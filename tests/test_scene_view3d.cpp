@@ -281,9 +281,9 @@ std::string wall_with(const std::string& window) {
          window + "\nS 3 9 10 11 12 0 0 0.7 plate\n";
 }
 
-ViewFactorMatrix group_factors(const Scene& s, Aggregation& agg) {
+ViewFactorMatrix group_factors(const Scene& s, Aggregation& agg, AggregateLevel level = AggregateLevel::Group) {
   const PatchViewFactors r = compute_view_factors(s, ViewFactorOptions{});
-  agg = make_aggregation(s, r.mesh, AggregateLevel::Group);
+  agg = make_aggregation(s, r.mesh, level);
   return aggregate(r.F, r.mesh, agg);
 }
 
@@ -334,6 +334,68 @@ TEST(View3dInput, SubsurfaceNullAndMaskSurfacesTakeTheirPartOutOfTheBase) {
   EXPECT_NEAR(M(1, 2), 0.0, 1e-12);
   EXPECT_NEAR(M(2, 0), (af_wp - af_sp) / 6.0, 1e-9);
   EXPECT_NEAR(M(2, 1), 0.0, 1e-12);
+}
+
+// The same at --by face (one face per surface here): the base face is the base minus its
+// subsurface, null or mask face, as at --by group, with the faces' names.
+TEST(View3dInput, SubsurfacesTakeTheirPartOutOfTheBaseFaceToo) {
+  for (const auto& [record, names] :
+       {std::pair{std::string("S 2 5 6 7 8 1 0 0.8 window"), std::vector<std::string>{"face 0", "face 1", "face 2"}},
+        {std::string("N 2 8 7 6 5 1 0 0.8 hole"), std::vector<std::string>{"face 0", "face 2"}},
+        {std::string("M 2 8 7 6 5 1 0 0.8 mask"), std::vector<std::string>{"face 0", "face 1", "face 2"}}}) {
+    const Scene s = load_scene(write_temp("sub.vs3", wall_with(record)));
+    Aggregation by_group, by_face;
+    const ViewFactorMatrix G = group_factors(s, by_group);
+    const ViewFactorMatrix F = group_factors(s, by_face, AggregateLevel::Face);
+    EXPECT_EQ(by_face.names, names) << record;
+    EXPECT_EQ(by_face.areas, by_group.areas) << record;
+    ASSERT_EQ(F.rows(), G.rows()) << record;
+    EXPECT_LE((F - G).cwiseAbs().maxCoeff(), 1e-15) << record;
+  }
+}
+
+// Rows subtracted from their base's cannot stream: --stream yes is refused naming why.
+TEST(View3dInput, SubsurfacesAtTheFaceLevelAreNotStreamed) {
+  const Scene s = load_scene(write_temp("window.vs3", wall_with("S 2 5 6 7 8 1 0 0.8 window")));
+  ViewFactorOptions opt;
+  opt.level = AggregateLevel::Face;
+  opt.stream = RowStreaming::Yes;
+  opt.row_sink_for = [](const PatchMesh&, const Aggregation&) {
+    return std::function<bool(int, const double*)>([](int, const double*) { return true; });
+  };
+  try {
+    compute_view_factors(s, opt);
+    ADD_FAILURE() << "streamed rows that are subtracted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::BadInput);
+    EXPECT_EQ(std::string(e.what()),
+              "--stream yes: subsurfaces are taken out of their base surfaces (their rows are "
+              "subtracted)");
+  }
+}
+
+// A combined base surface of two faces (the window names the right half, combined into the
+// left): at --by face the window is taken out of the face that holds it.
+TEST(View3dInput, SubsurfaceOfACombinedBaseLeavesTheOtherFaceWhole) {
+  const std::string text =
+      "T split wall, window, plate\nF 3\n"
+      "V 1 0 0 0\nV 2 1.5 0 0\nV 3 1.5 2 0\nV 4 0 2 0\nV 5 3 0 0\nV 6 3 2 0\n"
+      "V 7 1.75 0.5 0\nV 8 2.75 0.5 0\nV 9 2.75 1.5 0\nV 10 1.75 1.5 0\n"
+      "V 11 0 0 1\nV 12 0 2 1\nV 13 3 2 1\nV 14 3 0 1\n"
+      "S 1 1 2 3 4 0 0 0.9 left\nS 2 2 5 6 3 0 1 0.9 right\n"
+      "S 3 7 8 9 10 2 0 0.8 window\nS 4 11 12 13 14 0 0 0.7 plate\n";
+  const Scene s = load_scene(write_temp("combined.vs3", text));
+  Aggregation agg;
+  const ViewFactorMatrix F = group_factors(s, agg, AggregateLevel::Face);
+  ASSERT_EQ(agg.names, (std::vector<std::string>{"face 0", "face 1", "face 2", "face 3"}));
+  EXPECT_NEAR(agg.areas[0], 3.0, 1e-12);  // the left half, whole
+  EXPECT_NEAR(agg.areas[1], 2.0, 1e-12);  // the right half without the window
+  const double af_left = double(rect_ref::parallel_af(0, 1.5, 0, 2, 0, 3, 0, 2, 1));
+  const double af_right = double(rect_ref::parallel_af(1.5, 3, 0, 2, 0, 3, 0, 2, 1));
+  const double af_window = double(rect_ref::parallel_af(1.75, 2.75, 0.5, 1.5, 0, 3, 0, 2, 1));
+  EXPECT_NEAR(F(0, 3), af_left / 3.0, 1e-9);
+  EXPECT_NEAR(F(1, 3), (af_right - af_window) / 2.0, 1e-9);
+  EXPECT_NEAR(F(2, 3), af_window, 1e-9);
 }
 
 TEST(View3dInput, SubsurfacesAreCheckedAsView3DDoes) {

@@ -34,7 +34,8 @@
 // View3D's post-processing (docs/viewfactors.md).
 //
 // Subsurfaces (base = k ≠ 0 on an S line, k an earlier S surface): a group of their own, and
-// Face::base_group = the group of k, so that --by group reports k net of its subsurfaces.
+// Face::base_group = the group of k, so that --by group (and --by face, on the face of k that
+// holds it) reports k net of its subsurfaces.
 // Null surfaces (N, same fields as S, base required): the part of the base that is not there;
 // stored facing as the base does (vertices reversed), Face::null_surface, no group of their own.
 // Mask surfaces (M, as N): facing the base, F(mask → base) = 1; the part of the base they cover

@@ -62,7 +62,7 @@ struct Face {
   std::vector<Vec3> corner_normals = {};
   // View3D subsurface (`base` field): at --by group, this face's factors and area are also taken
   // out of group `base_group` (the base surface's), which so becomes the base minus its
-  // subsurfaces; -1 when none.
+  // subsurfaces (at --by face, out of the face of that group that holds this one); -1 when none.
   int base_group = -1;
   bool null_surface = false;  // View3D `N` surface: only taken out of base_group, no group of its own
   // View3D `M` surface: taken out of base_group, which also keeps its area; its own group sees

@@ -89,8 +89,9 @@ std::string why_not_streamed(const ViewFactorOptions& opt, const Aggregation* ag
   if (opt.level == AggregateLevel::Group) return "--by group sums rows of several patches";
   if (opt.enforcement) return "--enforce needs the whole matrix";
   if (opt.exchange_factors) return "C emit=1 (exchange factors) needs the whole matrix";
-  if (agg && (agg->size() != patches || !agg->minus_of_patch.empty()))
-    return "a face is split into several patches (--by face sums their rows)";
+  if (agg && !agg->minus_of_patch.empty())
+    return "subsurfaces are taken out of their base surfaces (their rows are subtracted)";
+  if (agg && agg->size() != patches) return "a face is split into several patches (--by face sums their rows)";
   return "";
 }
 
@@ -192,6 +193,55 @@ bool aggregate_level_from_name(const std::string& name, AggregateLevel& out) {
   return false;
 }
 
+namespace {
+
+// Per face: at the face level, the source face a subsurface (null, mask) face is taken out of:
+// the face of its base group that holds it (a combined base surface has several faces: the one
+// in whose plane and inside whose convex polygon the subsurface's centroid lies; the group's
+// first face if none does); -1 for faces that are no subsurface.
+std::vector<int> base_source_faces(const Scene& scene) {
+  std::vector<int> out(scene.faces.size(), -1);
+  std::vector<std::vector<int>> faces_of_group(scene.groups.size());
+  bool any = false;
+  for (size_t f = 0; f < scene.faces.size(); ++f) {
+    const Face& face = scene.faces[f];
+    any = any || face.base_group >= 0;
+    if (face.base_group < 0 && face.group >= 0 && face.group < int(scene.groups.size()))
+      faces_of_group[size_t(face.group)].push_back(int(f));
+  }
+  if (!any) return out;
+  const auto holds = [&](int base, const Vec3& c) {
+    const Polygon poly = scene.face_polygon(base);
+    const Vec3 n = polygon_normal(poly);
+    double size = 0.0;
+    for (size_t k = 0; k < poly.size(); ++k) size = std::max(size, (poly[(k + 1) % poly.size()] - poly[k]).norm());
+    const double tol = 1e-9 * std::max(size, 1.0);
+    if (std::abs(n.dot(c - poly[0])) > tol) return false;
+    for (size_t k = 0; k < poly.size(); ++k)  // convex, counter-clockwise about n
+      if ((poly[(k + 1) % poly.size()] - poly[k]).cross(c - poly[k]).dot(n) < -tol * size) return false;
+    return true;
+  };
+  for (size_t f = 0; f < scene.faces.size(); ++f) {
+    const Face& face = scene.faces[f];
+    if (face.base_group < 0) continue;
+    const std::vector<int>& candidates = faces_of_group[size_t(face.base_group)];
+    if (candidates.empty()) continue;
+    int base = candidates.front();
+    if (candidates.size() > 1) {
+      const Vec3 c = polygon_centroid(scene.face_polygon(int(f)));
+      for (int b : candidates)
+        if (holds(b, c)) {
+          base = b;
+          break;
+        }
+    }
+    out[f] = scene.faces[size_t(base)].source_face;
+  }
+  return out;
+}
+
+}  // namespace
+
 Aggregation make_aggregation(const Scene& scene, const PatchMesh& mesh, AggregateLevel level) {
   Aggregation a;
   const int n = mesh.size();
@@ -216,13 +266,17 @@ Aggregation make_aggregation(const Scene& scene, const PatchMesh& mesh, Aggregat
     }
     return index_of_key[key];
   };
+  const std::vector<int> base_face = level == AggregateLevel::Face ? base_source_faces(scene) : std::vector<int>();
   for (int i = 0; i < n; ++i) {
     const Face& f = scene.faces[static_cast<size_t>(mesh.patches[i].face)];
     const double area = mesh.patches[i].area;
-    // View3D subsurfaces and null surfaces: the base group is the base minus them.
-    if (level == AggregateLevel::Group && f.base_group >= 0) {
+    // View3D subsurfaces and null surfaces: the base surface (group, or the face holding them)
+    // is the base minus them.
+    const int base_key =
+        level == AggregateLevel::Group ? f.base_group : base_face[static_cast<size_t>(mesh.patches[i].face)];
+    if (base_key >= 0) {
       if (a.minus_of_patch.empty()) a.minus_of_patch.assign(static_cast<size_t>(n), -1);
-      const int base = surface_of_key(f.base_group);
+      const int base = surface_of_key(base_key);
       a.minus_of_patch[i] = base;
       a.areas[static_cast<size_t>(base)] -= area;
       if (f.null_surface) continue;
@@ -230,7 +284,7 @@ Aggregation make_aggregation(const Scene& scene, const PatchMesh& mesh, Aggregat
         // The masked part of the base only sees the mask: its area stays in the base's.
         if (a.mask_of_patch.empty()) a.mask_of_patch.assign(static_cast<size_t>(n), -1);
         a.areas[static_cast<size_t>(base)] += area;
-        const int mask = surface_of_key(f.group);
+        const int mask = surface_of_key(level == AggregateLevel::Group ? f.group : f.source_face);
         a.mask_of_patch[i] = mask;
         a.areas[static_cast<size_t>(mask)] += area;
         continue;

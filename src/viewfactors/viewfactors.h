@@ -140,7 +140,8 @@ struct Aggregation {
   std::vector<double> areas;       // m², Σ of member patch areas
   std::vector<int> of_patch;       // per patch: index of its surface (size N), -1 for none
   // Per patch (size N, or empty when none): the surface whose factors and area this patch is
-  // taken out of (Face::base_group at the group level: a View3D subsurface's base), -1 for none.
+  // taken out of (a View3D subsurface's base: Face::base_group at the group level, the face of
+  // that group holding the subsurface at the face level), -1 for none.
   std::vector<int> minus_of_patch;
   // Per patch (size N, or empty when none): the View3D mask surface (Face::mask_surface) the
   // patch belongs to, whose only factor is the one to its base (A_M F_MB = A_B F_BM = A_M), -1
