@@ -366,6 +366,31 @@ TEST(ViewFactorJob, StreamingAutoFollowsTheMemoryLimit) {
   EXPECT_EQ(files_in(dir), std::set<std::string>{"vf.csv"});  // from the runs that worked
 }
 
+// Streamed rows still have a memory estimate (the per-patch arrays and the rows in flight):
+// over --max-memory, the run is refused in one line before the fill, and nothing is written.
+TEST(ViewFactorJob, StreamedRowsOverTheLimitAreRefused) {
+  const fs::path dir = test_scratch::fresh_dir("photometria_vfjob_");
+  ViewFactorJob job = cornell_job(dir);
+  job.scene = std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/furnace_cube.obj";
+  job.level = AggregateLevel::Patch;
+  job.format = ViewFactorFormat::Binary;
+  job.fill.patching.max_edge = 0.1;
+  job.stream = RowStreaming::Yes;
+  job.fill.max_memory_bytes = 64 << 10;
+  try {
+    run_view_factor_job(job);
+    ADD_FAILURE() << "streamed over --max-memory";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::BadInput);
+    const std::string what = e.what();
+    EXPECT_NE(what.find("for 600 patches (rows streamed, 600 output surfaces) but --max-memory is 64 KiB"),
+              std::string::npos)
+        << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  }
+  EXPECT_TRUE(files_in(dir).empty());
+}
+
 TEST(ViewFactorJob, PointsOutputCannotBeTheMatrixOutput) {
   const fs::path dir = test_scratch::fresh_dir("photometria_vfjob_");
   ViewFactorJob job = cornell_job(dir);

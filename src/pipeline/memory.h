@@ -53,8 +53,11 @@ struct StorageChoice {
   bool fits = true;              // estimated_bytes <= limit_bytes (or no limit)
   // For a refusal: "--max-memory is 2 GiB" or "only 1.2 GiB is available (MemAvailable; set
   // --max-memory to override)".
-  std::string limit_description() const;
+  std::string limit_description() const;  // memory_limit_description(limit_bytes, limit_source)
 };
+// "--max-memory is 2 GiB" (limit_source "--max-memory") or "only 1.2 GiB is available
+// (MemAvailable; set --max-memory to override)".
+std::string memory_limit_description(double limit_bytes, const std::string& limit_source);
 
 // Layout auto: the smaller of dense and sparse for `nonzeros` expected non-zero entries of an
 // n × n matrix (choose_layout). Precision auto: double, unless the matrix in double and

@@ -131,6 +131,43 @@ std::string control_value(double v) {
   return o.str();
 }
 
+// The point factors, written to their (not yet committed) output.
+void finish_points(const ViewFactorJobResult& res, const std::vector<SurfacePoint>& points, const PatchViewFactors& r,
+                   const Aggregation& agg, std::optional<AtomicOutput>& points_out) {
+  if (!points_out) return;
+  const ViewFactorMatrix P = point_view_factors(points, r.mesh, agg, r.visibility.get(), res.job.fill);
+  std::vector<std::string> ids;
+  for (const SurfacePoint& p : points) ids.push_back(p.id);
+  write_point_factors(*points_out, ids, agg.names, P);
+}
+
+// All or nothing: the matrix first, then the point factors; when those fail to commit, the
+// committed matrix is removed again.
+void commit_all(AtomicOutput& main_out, std::optional<AtomicOutput>& points_out) {
+  main_out.commit();
+  if (points_out) {
+    try {
+      points_out->commit();
+    } catch (...) {
+      std::remove(main_out.target().c_str());
+      throw;
+    }
+  }
+}
+
+void fill_result(ViewFactorJobResult& res, const Scene& scene, const PatchViewFactors& r, const Aggregation& agg,
+                 std::chrono::steady_clock::time_point t0) {
+  res.faces = static_cast<int>(scene.faces.size());
+  res.patches = r.mesh.size();
+  res.names = agg.names;
+  res.areas = agg.areas;
+  res.visibility_mode = r.visibility_mode;
+  res.visibility_reason = r.visibility_reason;
+  res.memory = r.memory;
+  res.fill = r.fill;
+  res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
 }  // namespace
 
 std::vector<std::string> view3d_control_notes(const nlohmann::json& control, const ViewFactorJob& job) {
@@ -174,47 +211,6 @@ std::vector<std::string> view3d_control_notes(const nlohmann::json& control, con
   }
   return notes;
 }
-
-namespace {
-
-// The point factors, written to their (not yet committed) output.
-void finish_points(const ViewFactorJobResult& res, const std::vector<SurfacePoint>& points, const PatchViewFactors& r,
-                   const Aggregation& agg, std::optional<AtomicOutput>& points_out) {
-  if (!points_out) return;
-  const ViewFactorMatrix P = point_view_factors(points, r.mesh, agg, r.visibility.get(), res.job.fill);
-  std::vector<std::string> ids;
-  for (const SurfacePoint& p : points) ids.push_back(p.id);
-  write_point_factors(*points_out, ids, agg.names, P);
-}
-
-// All or nothing: the matrix first, then the point factors; when those fail to commit, the
-// committed matrix is removed again.
-void commit_all(AtomicOutput& main_out, std::optional<AtomicOutput>& points_out) {
-  main_out.commit();
-  if (points_out) {
-    try {
-      points_out->commit();
-    } catch (...) {
-      std::remove(main_out.target().c_str());
-      throw;
-    }
-  }
-}
-
-void fill_result(ViewFactorJobResult& res, const Scene& scene, const PatchViewFactors& r, const Aggregation& agg,
-                 std::chrono::steady_clock::time_point t0) {
-  res.faces = static_cast<int>(scene.faces.size());
-  res.patches = r.mesh.size();
-  res.names = agg.names;
-  res.areas = agg.areas;
-  res.visibility_mode = r.visibility_mode;
-  res.visibility_reason = r.visibility_reason;
-  res.memory = r.memory;
-  res.fill = r.fill;
-  res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-}  // namespace
 
 ViewFactorJobResult run_view_factor_job(const ViewFactorJob& job) {
   const auto t0 = std::chrono::steady_clock::now();

@@ -73,14 +73,11 @@ void check_streamed(const MemoryEstimate& estimate, double patches, double surfa
   m.estimated_bytes = estimate.per_patch_bytes * patches + threads * kStreamedRowBytes * patches + m.output_bytes;
   m.limit_bytes = opt.max_memory_bytes > 0 ? opt.max_memory_bytes : available_memory_bytes();
   m.limit_source = opt.max_memory_bytes > 0 ? "--max-memory" : "MemAvailable";
-  if (m.limit_bytes > 0 && m.estimated_bytes > m.limit_bytes) {
-    StorageChoice c;
-    c.limit_bytes = m.limit_bytes;
-    c.limit_source = m.limit_source;
+  if (m.limit_bytes > 0 && m.estimated_bytes > m.limit_bytes)
     throw_bad_input("view factors need an estimated " + format_bytes(m.estimated_bytes) + " for " +
                     format_patch_count(patches) + " patches (rows streamed, " + format_patch_count(surfaces) +
-                    " output surfaces) but " + c.limit_description() + "; raise --max-edge or raise --max-memory");
-  }
+                    " output surfaces) but " + memory_limit_description(m.limit_bytes, m.limit_source) +
+                    "; raise --max-edge or raise --max-memory");
 }
 
 // Why the fill cannot stream its rows ("" when it can, before patching: `mesh` null).
