@@ -262,6 +262,28 @@ TEST(ObjLoading, GroupsObjectsAndDefaultMaterial) {
   EXPECT_EQ(s.faces[2].vertices, (std::vector<int>{0, 1, 3}));  // relative indices
 }
 
+// A name that comes back later (g a, g b, g a) is the same group; many groups load in linear
+// time (a CAD export with a `g` per face: the groups are looked up by name, not searched).
+TEST(ObjLoading, RepeatedGroupNamesShareTheirGroup) {
+  TempDir dir;
+  std::string text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\nv 2 1 0\n";
+  text += "g a\nf 1 2 3\ng b\nf 2 5 6\ng a\nf 1 3 4\n";
+  for (int k = 0; k < 3000; ++k)
+    text += "v " + std::to_string(k) + " 5 0\nv " + std::to_string(k + 1) + " 5 0\nv " + std::to_string(k) +
+            " 6 0\ng part" + std::to_string(k) + "\nf -3 -2 -1\n";
+  const Scene s = load_scene(dir.write("groups.obj", text));
+  ASSERT_EQ(s.faces.size(), 3003u);
+  ASSERT_EQ(s.groups.size(), 3002u);
+  EXPECT_EQ(s.groups[0], "a");
+  EXPECT_EQ(s.groups[1], "b");
+  EXPECT_EQ(s.groups[2], "part0");
+  EXPECT_EQ(s.groups[3001], "part2999");
+  EXPECT_EQ(s.faces[0].group, 0);
+  EXPECT_EQ(s.faces[1].group, 1);
+  EXPECT_EQ(s.faces[2].group, 0);
+  EXPECT_EQ(s.faces[3002].group, 3001);
+}
+
 TEST(ObjLoading, MissingMtlKeepsUsemtlNamesWithDefaults) {
   TempDir dir;
   const std::string path =

@@ -109,7 +109,7 @@ void add_faces(RawScene& raw, const std::vector<tinyobj::shape_t>& shapes, const
     for (unsigned id : shape.mesh.smoothing_group_ids) with_smoothing_groups = with_smoothing_groups || id != 0;
   for (const tinyobj::shape_t& shape : shapes) {
     const std::string name = trimmed(shape.name);
-    const int group = add_group(raw.scene, name.empty() ? file_stem(path) : name);
+    const int group = add_group(raw, name.empty() ? file_stem(path) : name);
     size_t offset = 0;
     for (size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f, ++face_no) {
       Face face;

@@ -94,7 +94,7 @@ RawScene read_openmesh(const std::string& path, const LoadOptions& options) {
     s.vertices.emplace_back(p[0], p[1], p[2]);
   }
   const int material = add_material(raw, {"default", options.default_reflectance, options.default_emission}, path);
-  const int group = add_group(s, file_stem(path));
+  const int group = add_group(raw, file_stem(path));
   for (const auto fh : mesh.faces()) {
     Face face;
     for (const auto vh : mesh.fv_range(fh)) face.vertices.push_back(vh.idx());

@@ -8,6 +8,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <unordered_map>
 #include <vector>
 
 #include "scene/scene.h"
@@ -17,6 +18,9 @@ namespace photometria::scene_detail {
 struct RawScene {
   Scene scene;
   std::vector<std::string> material_origin;  // per material: "file" or "file:line" of its values
+  // scene.groups by name (add_group), so that a file of 10⁵ groups (a CAD export with a `g` per
+  // face) is not searched once per group; rebuilt when scene.groups changed behind its back.
+  std::unordered_map<std::string, int> group_index;
 };
 
 // --- text.cpp: file and token helpers ----------------------------------------------------------
@@ -41,7 +45,7 @@ std::string in_quotes(std::string_view s);  // 'value' for messages
 // Adds a material / group, or returns the index of an equal one already there (same name and,
 // for materials, same values: same-named materials with different values stay separate).
 int add_material(RawScene& raw, const Material& m, const std::string& origin);
-int add_group(Scene& scene, const std::string& name);
+int add_group(RawScene& raw, const std::string& name);
 
 // --- readers -----------------------------------------------------------------------------------
 

@@ -16,11 +16,15 @@ int add_material(RawScene& raw, const Material& m, const std::string& origin) {
   return static_cast<int>(materials.size() - 1);
 }
 
-int add_group(Scene& scene, const std::string& name) {
-  for (size_t i = 0; i < scene.groups.size(); ++i)
-    if (scene.groups[i] == name) return static_cast<int>(i);
-  scene.groups.push_back(name);
-  return static_cast<int>(scene.groups.size() - 1);
+int add_group(RawScene& raw, const std::string& name) {
+  std::vector<std::string>& groups = raw.scene.groups;
+  if (raw.group_index.size() != groups.size()) {  // groups added without add_group: index them
+    raw.group_index.clear();
+    for (size_t i = 0; i < groups.size(); ++i) raw.group_index.emplace(groups[i], static_cast<int>(i));
+  }
+  const auto [it, added] = raw.group_index.emplace(name, static_cast<int>(groups.size()));
+  if (added) groups.push_back(name);
+  return it->second;
 }
 
 void append_scene(RawScene& into, RawScene&& part) {
@@ -29,7 +33,7 @@ void append_scene(RawScene& into, RawScene&& part) {
   std::vector<int> material(p.materials.size()), group(p.groups.size());
   for (size_t i = 0; i < p.materials.size(); ++i)
     material[i] = add_material(into, p.materials[i], part.material_origin[i]);
-  for (size_t i = 0; i < p.groups.size(); ++i) group[i] = add_group(s, p.groups[i]);
+  for (size_t i = 0; i < p.groups.size(); ++i) group[i] = add_group(into, p.groups[i]);
 
   const int vertex_offset = static_cast<int>(s.vertices.size());
   const int face_offset = s.stats.input_faces;
