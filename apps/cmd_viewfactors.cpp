@@ -8,6 +8,7 @@
 #include <string>
 
 #include "commands.h"
+#include "distributed/ranks.h"
 #include "formfactors/storage.h"
 #include "options.h"
 #include "pipeline/memory.h"
@@ -70,9 +71,12 @@ int run(const ViewFactorArgs& a) {
   pm::ViewFactorJob job = job_of(a);
   // The fill's progress and time left on stderr: a bar on a terminal, a line every 5 s elsewhere.
   pm::ProgressReporter progress(std::cerr, isatty(STDERR_FILENO));
-  if (!a.quiet) job.fill.progress = progress.callback();
+  // On MPI ranks rank 0 shows its own rows' progress and prints the summary of all.
+  const bool speaks = pm::ranks::is_root();
+  if (!a.quiet && speaks) job.fill.progress = progress.callback();
   const pm::ViewFactorJobResult r = pm::run_view_factor_job(job);
   progress.clear();
+  if (!speaks) return 0;
   if (a.json) std::cout << pm::viewfactor_summary_json(r).dump(2) << std::endl;
   else std::cout << pm::viewfactor_summary_text(r);
   return 0;

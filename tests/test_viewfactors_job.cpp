@@ -79,7 +79,8 @@ const std::set<std::string> kAlwaysKeys = {"scene",
                                            "pairs",
                                            "enforce",
                                            "seconds",
-                                           "peak_memory_bytes"};
+                                           "peak_memory_bytes",
+                                           "ranks"};
 
 }  // namespace
 

@@ -451,7 +451,8 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
   const PolygonBatch sources = patch_batch(mesh);
   // Without visibility, a closed-form pair is computed once, from its lower-index patch, and the
   // other entry follows by reciprocity (dense storage: filled in place after the loop).
-  const bool mirror = rects && !vis && F.layout() == MatrixLayout::Dense;
+  // (Not for a subset of the rows: the mirrored entries would come from rows not filled.)
+  const bool mirror = rects && !vis && F.layout() == MatrixLayout::Dense && !options.rows;
   double max_point_sum = 0.0;
   // The facing test per group of coplanar sources, so most pairs skip facing_away (facing.h).
   const FacingGroups facing_runs(mesh, tol);
@@ -470,12 +471,14 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
   }
   double max_row_error = 0.0, max_ray_error = 0.0;
   std::atomic<bool> stopped{false};
+  const int row_count = options.rows ? static_cast<int>(options.rows->size()) : n;
 
 #pragma omp parallel for schedule(dynamic, 4) reduction(merge     \
                                                         : counts) \
     reduction(max                                                 \
               : max_point_sum, max_row_error, max_ray_error)
-  for (int i = 0; i < n; ++i) {
+  for (int k = 0; k < row_count; ++k) {
+    const int i = options.rows ? (*options.rows)[size_t(k)] : k;
     if (stopped) continue;  // the row sink asked to stop
     // F_i,·: written in place into a dense double matrix (zero until now), else into a buffer.
     std::vector<double> row_buffer;
@@ -498,7 +501,7 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
       F.set_row(i, row);
     }
     const int done = ++rows_done;
-    if (options.progress && omp_get_thread_num() == 0) options.progress(double(done) / n);
+    if (options.progress && omp_get_thread_num() == 0) options.progress(double(done) / row_count);
   }
   if (options.progress) options.progress(1.0);
   if (mirror) {

@@ -59,6 +59,10 @@ struct FillOptions {
   // hold (viewfactors --format sparse). The sink must not throw; it returns false to stop the
   // fill (the rows not started yet are skipped: a failed write ends a long run early).
   std::function<bool(int, const double*)> row_sink;
+  // Optional: only these rows (receiver patches, each once) are filled, in this order as far as
+  // the threads allow; the others stay zero (a stored matrix) or never reach row_sink. What one
+  // rank of an MPI run fills (distributed/row_partition.h). Null: every row.
+  const std::vector<int>* rows = nullptr;
   // Storage of the result (formfactors/storage.h); Auto is resolved by the caller from the
   // expected non-zero count (pipeline/memory.h), here it means dense.
   MatrixLayout layout = MatrixLayout::Dense;

@@ -91,13 +91,6 @@ std::string csv_cell(const std::string& s) {
   return out;
 }
 
-// The sparse form's "# surface" lines and its "i,j,F" header.
-void write_sparse_header(std::ofstream& out, const std::vector<std::string>& names, const std::vector<double>& areas) {
-  for (size_t i = 0; i < names.size(); ++i)
-    out << "# surface," << i << "," << csv_cell(names[i]) << "," << shortest(areas[i]) << "\n";
-  out << "i,j,F\n";
-}
-
 // Row i of the sparse form ("i,j,F" lines of its entries >= threshold and > 0) appended to
 // `text`; the entries below the threshold are added to dropped / dropped_count.
 void format_sparse_row(int i, const double* row, int n, double threshold, std::string& text, double& dropped,
@@ -119,12 +112,6 @@ void format_sparse_row(int i, const double* row, int n, double threshold, std::s
     text.push_back('\n');
     ++written;
   }
-}
-
-template <class T>
-void put(std::ofstream& out, T v) {
-  // Little-endian hosts only (checked below): the in-memory bytes are the file's.
-  out.write(reinterpret_cast<const char*>(&v), sizeof v);
 }
 
 bool little_endian() {
@@ -154,121 +141,117 @@ bool view_factor_format_from_name(const std::string& name, ViewFactorFormat& out
   return false;
 }
 
+ViewFactorForm::ViewFactorForm(ViewFactorFormat format, const std::vector<std::string>& names,
+                               const std::vector<double>& areas, double threshold, const View3dOutput& view3d)
+    : format_(format), names_(names), areas_(areas), threshold_(threshold), view3d_(view3d) {
+  if (format_ == ViewFactorFormat::Binary && !little_endian())
+    throw_io("binary view-factor output needs a little-endian host");
+}
+
 namespace {
+// The value as View3D holds it (single precision; -0 printed as 0), then as its printf would.
+void view3d_field(std::string& line, double v, std::chars_format format, int precision) {
+  append_printf_like(line, static_cast<double>(static_cast<float>(v == 0.0 ? 0.0 : v)), format, precision);
+}
 
-// The parts of each form (the layouts are in viewfactor_output.h): what comes before the rows,
-// one row, and what comes after. Shared by the stored and the streamed writers, so that both
-// write the same bytes.
-class FormWriter {
- public:
-  FormWriter(ViewFactorFormat format, const std::vector<std::string>& names, const std::vector<double>& areas,
-             double threshold, const View3dOutput& view3d)
-      : format_(format), names_(names), areas_(areas), threshold_(threshold), view3d_(view3d) {
-    if (format_ == ViewFactorFormat::Binary && !little_endian())
-      throw_io("binary view-factor output needs a little-endian host");
-  }
-  int n() const { return static_cast<int>(names_.size()); }
+template <class T>
+void put(std::string& out, T v) {
+  // Little-endian hosts only (checked by ViewFactorForm): the in-memory bytes are the file's.
+  out.append(reinterpret_cast<const char*>(&v), sizeof v);
+}
+}  // namespace
 
-  void header(std::ofstream& out) const {
-    const int n = this->n();
-    switch (format_) {
-      case ViewFactorFormat::Csv: {
-        std::string line = "name,area";
-        for (const std::string& s : names_) line.append(1, ',').append(csv_cell(s));
-        out << line << "\n";
-        break;
+std::string ViewFactorForm::header() const {
+  const int n = this->n();
+  std::string out;
+  switch (format_) {
+    case ViewFactorFormat::Csv: {
+      out = "name,area";
+      for (const std::string& s : names_) out.append(1, ',').append(csv_cell(s));
+      out += "\n";
+      break;
+    }
+    case ViewFactorFormat::Sparse:
+      for (size_t i = 0; i < names_.size(); ++i)
+        out += "# surface," + std::to_string(i) + "," + csv_cell(names_[i]) + "," + shortest(areas_[i]) + "\n";
+      out += "i,j,F\n";
+      break;
+    case ViewFactorFormat::Binary:
+      out.append("PMVF\0\0\0\1", 8);
+      put<uint64_t>(out, static_cast<uint64_t>(n));
+      for (const std::string& s : names_) {
+        put<uint32_t>(out, static_cast<uint32_t>(s.size()));
+        out.append(s);
       }
-      case ViewFactorFormat::Sparse: write_sparse_header(out, names_, areas_); break;
-      case ViewFactorFormat::Binary:
-        out.write("PMVF\0\0\0\1", 8);
-        put<uint64_t>(out, static_cast<uint64_t>(n));
-        for (const std::string& s : names_) {
-          put<uint32_t>(out, static_cast<uint32_t>(s.size()));
-          out.write(s.data(), static_cast<std::streamsize>(s.size()));
-        }
-        for (int i = 0; i < n; ++i) put<double>(out, areas_[size_t(i)]);
-        break;
-      case ViewFactorFormat::View3d: {
-        // View3D's SaveVF, output format 0 (docs/viewfactors.md "The view3d form"): its values
-        // are single precision (R4) printed with C's %g / %.6f / %.3f, blank-separated.
-        std::string line = view3d_.program + " " + view3d_.version + " 0 " + std::to_string(view3d_.enclosure) + " " +
-                           std::to_string(view3d_.emittances) + " " + std::to_string(n);
-        if (line.size() < 30) line.resize(30, ' ');
-        out << line << "\n";
-        line.clear();
-        for (int i = 0; i < n; ++i) {
-          if (i) line.push_back(' ');
-          view3d_field(line, areas_[size_t(i)], std::chars_format::general, 6);  // %g
-        }
-        out << line << "\n";
-        break;
+      for (int i = 0; i < n; ++i) put<double>(out, areas_[size_t(i)]);
+      break;
+    case ViewFactorFormat::View3d: {
+      // View3D's SaveVF, output format 0 (docs/viewfactors.md "The view3d form"): its values
+      // are single precision (R4) printed with C's %g / %.6f / %.3f, blank-separated.
+      std::string line = view3d_.program + " " + view3d_.version + " 0 " + std::to_string(view3d_.enclosure) + " " +
+                         std::to_string(view3d_.emittances) + " " + std::to_string(n);
+      if (line.size() < 30) line.resize(30, ' ');
+      out = line + "\n";
+      for (int i = 0; i < n; ++i) {
+        if (i) out.push_back(' ');
+        view3d_field(out, areas_[size_t(i)], std::chars_format::general, 6);  // %g
       }
+      out += "\n";
+      break;
     }
   }
+  return out;
+}
 
-  // Row i (n entries) appended to `text`; the sparse form's drops into `row`.
-  void row(int i, const double* F_row, std::string& text, RowDrops& row) const {
-    const int n = this->n();
-    switch (format_) {
-      case ViewFactorFormat::Csv: {
-        text.append(csv_cell(names_[size_t(i)])).push_back(',');
-        append_shortest(text, areas_[size_t(i)]);
-        // Straight into the row's memory: a shortest double takes at most 24 characters.
-        const size_t start = text.size();
-        text.resize(start + size_t(n) * 25 + 1);
-        char* p = text.data() + start;
-        for (int j = 0; j < n; ++j) {
-          *p++ = ',';
-          p = std::to_chars(p, p + 24, F_row[j]).ptr;
-        }
-        *p++ = '\n';
-        text.resize(size_t(p - text.data()));
-        break;
+void ViewFactorForm::row(int i, const double* F_row, std::string& text, RowDrops& row) const {
+  const int n = this->n();
+  switch (format_) {
+    case ViewFactorFormat::Csv: {
+      text.append(csv_cell(names_[size_t(i)])).push_back(',');
+      append_shortest(text, areas_[size_t(i)]);
+      // Straight into the row's memory: a shortest double takes at most 24 characters.
+      const size_t start = text.size();
+      text.resize(start + size_t(n) * 25 + 1);
+      char* p = text.data() + start;
+      for (int j = 0; j < n; ++j) {
+        *p++ = ',';
+        p = std::to_chars(p, p + 24, F_row[j]).ptr;
       }
-      case ViewFactorFormat::Sparse:
-        format_sparse_row(i, F_row, n, threshold_, text, row.dropped, row.dropped_count, row.written);
-        break;
-      case ViewFactorFormat::Binary:
-        // Little-endian (checked at construction): the in-memory bytes are the file's.
-        text.append(reinterpret_cast<const char*>(F_row), sizeof(double) * size_t(n));
-        break;
-      case ViewFactorFormat::View3d:
-        text.reserve(text.size() + size_t(n) * 9);
-        for (int j = 0; j < n; ++j) {
-          if (j) text.push_back(' ');
-          view3d_field(text, F_row[j], std::chars_format::fixed, 6);  // %.6f
-        }
-        text.push_back('\n');
-        break;
+      *p++ = '\n';
+      text.resize(size_t(p - text.data()));
+      break;
     }
+    case ViewFactorFormat::Sparse:
+      format_sparse_row(i, F_row, n, threshold_, text, row.dropped, row.dropped_count, row.written);
+      break;
+    case ViewFactorFormat::Binary:
+      // Little-endian (checked at construction): the in-memory bytes are the file's.
+      text.append(reinterpret_cast<const char*>(F_row), sizeof(double) * size_t(n));
+      break;
+    case ViewFactorFormat::View3d:
+      text.reserve(text.size() + size_t(n) * 9);
+      for (int j = 0; j < n; ++j) {
+        if (j) text.push_back(' ');
+        view3d_field(text, F_row[j], std::chars_format::fixed, 6);  // %.6f
+      }
+      text.push_back('\n');
+      break;
   }
+}
 
-  void trailer(std::ofstream& out) const {
-    if (format_ != ViewFactorFormat::View3d) return;
-    const int n = this->n();
-    std::string line;
-    const bool have_emit = view3d_.emissivities.size() == static_cast<size_t>(n);
-    for (int i = 0; i < n; ++i) {
-      if (i) line.push_back(' ');
-      view3d_field(line, have_emit ? view3d_.emissivities[size_t(i)] : 1.0, std::chars_format::fixed, 3);  // %.3f
-    }
-    out << line << "\n";
+std::string ViewFactorForm::trailer() const {
+  std::string line;
+  if (format_ != ViewFactorFormat::View3d) return line;
+  const int n = this->n();
+  const bool have_emit = view3d_.emissivities.size() == static_cast<size_t>(n);
+  for (int i = 0; i < n; ++i) {
+    if (i) line.push_back(' ');
+    view3d_field(line, have_emit ? view3d_.emissivities[size_t(i)] : 1.0, std::chars_format::fixed, 3);  // %.3f
   }
+  return line + "\n";
+}
 
- private:
-  // The value as View3D holds it (single precision; -0 printed as 0), then as its printf would.
-  static void view3d_field(std::string& line, double v, std::chars_format format, int precision) {
-    append_printf_like(line, static_cast<double>(static_cast<float>(v == 0.0 ? 0.0 : v)), format, precision);
-  }
-  ViewFactorFormat format_;
-  const std::vector<std::string>& names_;
-  const std::vector<double>& areas_;
-  double threshold_;
-  View3dOutput view3d_;
-};
-
-// Adds a row's drops to the statistics; rows must come in row order (the worst row is the first).
-void add_drops(SparseWriteStats& st, const RowDrops& row, int i) {
+void add_row_drops(SparseWriteStats& st, const RowDrops& row, int i) {
   st.written += row.written;
   st.dropped += row.dropped_count;
   st.total_dropped += row.dropped;
@@ -278,16 +261,14 @@ void add_drops(SparseWriteStats& st, const RowDrops& row, int i) {
   }
 }
 
-}  // namespace
-
 SparseWriteStats write_view_factors(AtomicOutput& atomic, ViewFactorFormat format,
                                     const std::vector<std::string>& names, const std::vector<double>& areas,
                                     const ViewFactorRows& F, double threshold, const View3dOutput& view3d,
                                     const std::function<void(double)>& progress) {
-  const FormWriter form(format, names, areas, threshold, view3d);
+  const ViewFactorForm form(format, names, areas, threshold, view3d);
   const int n = form.n();
   SparseWriteStats st;
-  form.header(atomic.stream());
+  atomic.stream() << form.header();
   if (format == ViewFactorFormat::Binary) {
     DirectAppender matrix(atomic);  // the whole matrix at once (past the page cache, direct_append.h)
     matrix.append(reinterpret_cast<const char*>(F.data()), sizeof(double) * size_t(n) * size_t(n));
@@ -302,9 +283,9 @@ SparseWriteStats write_view_factors(AtomicOutput& atomic, ViewFactorFormat forma
           form.row(i, F.row(i).data(), text, rows.empty() ? unused : rows[size_t(i)]);
         },
         progress);
-    for (size_t i = 0; i < rows.size(); ++i) add_drops(st, rows[i], int(i));
+    for (size_t i = 0; i < rows.size(); ++i) add_row_drops(st, rows[i], int(i));
   }
-  form.trailer(atomic.stream());
+  atomic.stream() << form.trailer();
   atomic.check_stream();  // the caller's commit() flushes, closes and syncs
   return st;
 }
@@ -313,11 +294,11 @@ struct ViewFactorRowStream::State {
   State(AtomicOutput& out, ViewFactorFormat format, const std::vector<std::string>& names,
         const std::vector<double>& areas, double threshold, const View3dOutput& view3d)
       : form(format, names, areas, threshold, view3d) {
-    form.header(out.stream());
+    out.stream() << form.header();
     out.check_stream();
     appender.emplace(out);
   }
-  FormWriter form;
+  ViewFactorForm form;
   std::optional<DirectAppender> appender;  // the rows, past the page cache
 };
 
@@ -344,7 +325,7 @@ void ViewFactorRowStream::write_in_order(Row row, int i) {
   }
   for (;;) {
     state_->appender->append(row.text.data(), row.text.size());
-    add_drops(stats_, row.drops, next_);  // in row order, as write_view_factors sums them
+    add_row_drops(stats_, row.drops, next_);  // in row order, as write_view_factors sums them
     ++next_;
     const auto it = waiting_.find(next_);
     if (it == waiting_.end()) break;
@@ -358,7 +339,7 @@ SparseWriteStats ViewFactorRowStream::finish() {
   if (next_ != n_ || !waiting_.empty())
     throw std::logic_error("ViewFactorRowStream: " + std::to_string(n_ - next_) + " rows were not added");
   state_->appender->finish();
-  state_->form.trailer(out_.stream());
+  out_.stream() << state_->form.trailer();
   out_.check_stream();
   return stats_;
 }

@@ -67,6 +67,33 @@ struct View3dOutput {
   std::vector<double> emissivities;     // last line, per surface; not n long: 1.0 for every surface
 };
 
+// The parts of one form: what comes before the rows, one row, what comes after, as bytes. The
+// writers below are made of it, and so are writers that place the rows themselves (the ranks of
+// an MPI run, distributed/shared_file.h): header() + row 0 + ... + row n-1 + trailer() are the
+// bytes write_view_factors writes. `names` and `areas` must outlive it. Throws Error(Io) for
+// Binary on a big-endian host.
+class ViewFactorForm {
+ public:
+  ViewFactorForm(ViewFactorFormat format, const std::vector<std::string>& names, const std::vector<double>& areas,
+                 double threshold = 0.0, const View3dOutput& view3d = {});
+  int n() const { return static_cast<int>(names_.size()); }
+  std::string header() const;
+  // Row i (its n entries F_ij) appended to `text`; the sparse form's drops into `drops`.
+  void row(int i, const double* F_row, std::string& text, RowDrops& drops) const;
+  std::string trailer() const;
+
+ private:
+  ViewFactorFormat format_;
+  const std::vector<std::string>& names_;
+  const std::vector<double>& areas_;
+  double threshold_;
+  View3dOutput view3d_;
+};
+
+// Adds row i's drops to the statistics; called in row order, as the writers do (the worst row is
+// then the first of the largest).
+void add_row_drops(SparseWriteStats& stats, const RowDrops& row, int i);
+
 // Writes F into `out`'s temporary file (not committed). Throws Error(Io) naming out.target()
 // when it cannot be written. `threshold` only applies to Sparse; `view3d` only to View3d.
 // Returns the drop statistics (all zero for the dense forms). `progress` (optional) is called with

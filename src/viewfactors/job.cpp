@@ -10,8 +10,15 @@
 #include <mutex>
 #include <optional>
 #include <sstream>
+#include <thread>
 
+#include <omp.h>
+
+#include "distributed/ranks.h"
+#include "distributed/row_partition.h"
+#include "distributed/shared_file.h"
 #include "io/atomic_file.h"
+#include "pipeline/solve.h"
 #include "scene/scene.h"
 #include "util/error.h"
 
@@ -59,18 +66,26 @@ bool view3d_asks_for_exchange_factors(const std::string& path, const Scene& scen
 }
 
 // The rows of a streamed fill (ViewFactorOptions::row_sink_for) into the output: each patch row
-// permuted into output order, checked (its sum as check_matrix sums it, the entry extremes) and
-// handed to the ViewFactorRowStream. A failure to write is kept, and stops the fill.
+// permuted into output order and checked (its sum as check_matrix sums it, the entry extremes).
+// One process hands it to a ViewFactorRowStream, which appends it in row order. A rank of an MPI
+// run keeps it formatted until every rank has filled its rows; then all write their rows into the
+// one file at once (finish_on_ranks). A failure to write is kept, and stops the fill.
 class StreamedRows {
  public:
-  StreamedRows(AtomicOutput& out, ViewFactorFormat format, const Aggregation& agg, double threshold,
+  // `out`: the output, for one process; null on the ranks of an MPI run.
+  StreamedRows(AtomicOutput* out, ViewFactorFormat format, const Aggregation& agg, double threshold,
                const View3dOutput& view3d)
       : names_(agg.names),
         areas_(agg.areas),
-        writer_(out, format, names_, areas_, threshold, view3d),
+        form_(format, names_, areas_, threshold, view3d),
         of_patch_(agg.of_patch),
         patch_of_(agg.of_patch.size(), -1),
         row_sums_(agg.of_patch.size(), 0.0) {
+    if (out) writer_.emplace(*out, format, names_, areas_, threshold, view3d);
+    else {
+      kept_.resize(of_patch_.size());
+      drops_.resize(of_patch_.size());
+    }
     for (size_t i = 0; i < of_patch_.size(); ++i) {
       patch_of_[size_t(of_patch_[i])] = int(i);
       identity_ = identity_ && of_patch_[i] == int(i);
@@ -96,7 +111,8 @@ class StreamedRows {
         min_entry_ = std::min(min_entry_, lo);
         max_entry_ = std::max(max_entry_, hi);
       }
-      writer_.add_row(I, row);
+      if (writer_) writer_->add_row(I, row);
+      else form_.row(I, row, kept_[size_t(I)], drops_[size_t(I)]);  // distinct rows: distinct slots
       return true;
     } catch (...) {
       const std::lock_guard<std::mutex> lock(mutex_);
@@ -105,17 +121,46 @@ class StreamedRows {
     }
   }
 
-  // After the fill: rethrows a failure, else the drop statistics and the row checks.
+  const std::exception_ptr& failure() const { return failure_; }
+
+  // One process, after the fill: rethrows a failure, else the drop statistics and the row checks.
   SparseWriteStats finish(MatrixChecks& checks) {
     if (failure_) std::rethrow_exception(failure_);
     checks = check_rows(row_sums_, min_entry_, max_entry_);
-    return writer_.finish();
+    return writer_->finish();
+  }
+
+  // Every rank, after the fill and ranks::agree(failure()): the rows of all ranks written into
+  // `temp` (rank 0's temporary file of `target`), and the statistics and checks of all rows (the
+  // same on every rank, equal to one process's). Collective; throws on every rank.
+  SparseWriteStats finish_on_ranks(const std::string& temp, const std::string& target, MatrixChecks& checks) {
+    const size_t n = of_patch_.size();
+    ranks::sum(row_sums_);  // each row's sum is on one rank, zeros elsewhere: exact
+    checks = check_rows(row_sums_, ranks::min(min_entry_), ranks::max(max_entry_));
+    std::vector<double> dropped(n);
+    std::vector<long long> counts(2 * n);  // dropped, then written
+    std::vector<std::pair<int, const std::string*>> mine;
+    for (size_t I = 0; I < n; ++I) {
+      dropped[I] = drops_[I].dropped;
+      counts[I] = drops_[I].dropped_count;
+      counts[n + I] = drops_[I].written;
+      if (!kept_[I].empty()) mine.emplace_back(int(I), &kept_[I]);
+    }
+    ranks::sum(dropped);
+    ranks::sum(counts);
+    SparseWriteStats stats;
+    for (size_t I = 0; I < n; ++I) add_row_drops(stats, RowDrops{dropped[I], counts[I], counts[n + I]}, int(I));
+    write_pieces(temp, target, form_.header(), mine, int(n), form_.trailer());
+    return stats;
   }
 
  private:
-  std::vector<std::string> names_;  // the writer's (it keeps references)
+  std::vector<std::string> names_;  // the writers' (they keep references)
   std::vector<double> areas_;
-  ViewFactorRowStream writer_;
+  ViewFactorForm form_;
+  std::optional<ViewFactorRowStream> writer_;  // one process
+  std::vector<std::string> kept_;              // on ranks: per output row, this rank's formatted rows
+  std::vector<RowDrops> drops_;                // on ranks: their drops
   std::vector<int> of_patch_, patch_of_;
   bool identity_ = true;
   std::vector<double> row_sums_;  // per output row
@@ -123,6 +168,62 @@ class StreamedRows {
   double min_entry_ = 1e300, max_entry_ = -1e300;
   std::exception_ptr failure_;
 };
+
+// Bytes per matrix entry that a rank keeps of its formatted rows (the memory estimate): a CSV
+// value is at most 24 characters and its comma (most are about 20), a sparse triplet about 30
+// for the share of entries that are not zero, a view3d field 9, a binary one 8.
+double held_bytes_per_entry(ViewFactorFormat format) {
+  switch (format) {
+    case ViewFactorFormat::Csv: return 22.0;
+    case ViewFactorFormat::Sparse: return 15.0;
+    case ViewFactorFormat::View3d: return 9.0;
+    case ViewFactorFormat::Binary: return 8.0;
+  }
+  return 24.0;
+}
+
+// The fill's counts summed over the ranks, its maxima the largest of any rank's.
+void sum_over_ranks(FillStats& f) {
+  std::vector<long long> counts = {f.pairs_evaluated,
+                                   f.pairs_backfacing,
+                                   f.pairs_tested,
+                                   f.pairs_culled,
+                                   f.pairs_occluded,
+                                   f.pairs_blocked_whole,
+                                   f.rays_cast,
+                                   f.above_unoccluded,
+                                   f.points_rescaled,
+                                   f.pairs_fixed_rule,
+                                   f.pairs_gauss,
+                                   f.pairs_adaptive,
+                                   f.pairs_exact_rectangles,
+                                   f.kernel_evaluations,
+                                   f.pairs_occluded_adaptive,
+                                   f.occluded_evaluations,
+                                   f.occluded_budget_exhausted};
+  ranks::sum(counts);
+  long long* fields[] = {&f.pairs_evaluated,
+                         &f.pairs_backfacing,
+                         &f.pairs_tested,
+                         &f.pairs_culled,
+                         &f.pairs_occluded,
+                         &f.pairs_blocked_whole,
+                         &f.rays_cast,
+                         &f.above_unoccluded,
+                         &f.points_rescaled,
+                         &f.pairs_fixed_rule,
+                         &f.pairs_gauss,
+                         &f.pairs_adaptive,
+                         &f.pairs_exact_rectangles,
+                         &f.kernel_evaluations,
+                         &f.pairs_occluded_adaptive,
+                         &f.occluded_evaluations,
+                         &f.occluded_budget_exhausted};
+  for (size_t k = 0; k < counts.size(); ++k) *fields[k] = counts[k];
+  f.max_point_row_sum = ranks::max(f.max_point_row_sum);
+  f.max_row_error_estimate = ranks::max(f.max_row_error_estimate);
+  f.max_row_ray_error = ranks::max(f.max_row_ray_error);
+}
 
 // A number as the C line would give it ("1e-05", "2").
 std::string control_value(double v) {
@@ -169,6 +270,16 @@ void fill_result(ViewFactorJobResult& res, const Scene& scene, const PatchViewFa
 }
 
 }  // namespace
+
+double ViewFactorJobResult::load_imbalance() const {
+  if (fill_seconds_per_rank.empty()) return 1.0;
+  double sum = 0.0, most = 0.0;
+  for (double t : fill_seconds_per_rank) {
+    sum += t;
+    most = std::max(most, t);
+  }
+  return sum > 0.0 ? most * double(fill_seconds_per_rank.size()) / sum : 1.0;
+}
 
 std::vector<std::string> view3d_control_notes(const nlohmann::json& control, const ViewFactorJob& job) {
   std::vector<std::string> notes;
@@ -224,39 +335,52 @@ ViewFactorJobResult run_view_factor_job(const ViewFactorJob& job) {
                           : job.points_output.empty() ? job.output + ".points.csv"
                                                       : job.points_output;
   const std::string& points_path = res.job.points_output;
+  // On several MPI ranks every rank fills its share of the rows; rank 0 alone holds the outputs.
+  // Failures are agreed at fixed points (ranks::agree), so that no rank waits for a failed one.
+  const bool on_ranks = ranks::distributed();
+  const bool root = ranks::is_root();
+  res.ranks = ranks::size();
+  std::exception_ptr failure;
 
   // Every output is opened (its temporary file created) before the long work, so that an
   // unwritable path fails in a second, and committed only when all of them were written, so
   // that a failed run leaves none (io/atomic_file.h).
-  if (!points_path.empty()) {
-    namespace fs = std::filesystem;
-    if (fs::absolute(points_path).lexically_normal() == fs::absolute(job.output).lexically_normal())
-      throw_bad_input("--points-output: '" + points_path + "' is also the -o output");
-  }
-  AtomicOutput main_out(job.output);
-  std::optional<AtomicOutput> points_out;
-  if (!points_path.empty()) points_out.emplace(points_path);
-
-  LoadOptions lo;
-  lo.flip_normals = job.flip_normals;
-  const Scene scene = load_scene(job.scene, lo);
-  if (job.on_load_warning)
-    for (const std::string& w : load_warnings(scene.stats)) job.on_load_warning(scene.source, w);
-  // Points are read before the (long) fill so that a bad file fails fast.
-  std::vector<SurfacePoint> points;
-  if (!job.points.empty()) points = load_points(job.points);
-  opt.points = static_cast<int>(points.size());
-
-  // A .vs3 input's `C emit=1`: Hottel's exchange factors instead of the geometric ones.
-  res.exchange_factors = view3d_asks_for_exchange_factors(job.scene, scene);
-  opt.exchange_factors = res.exchange_factors;
   const auto all_zero = [](const std::vector<double>& e) {
     return std::all_of(e.begin(), e.end(), [](double x) { return x == 0.0; });
   };
   const std::string no_emissivity =
       ": C emit=1 asks for exchange factors, but every surface's emissivity (the emit field of its S line) is 0";
-  if (res.exchange_factors && all_zero(view3d_emissivities(job.scene)))  // before the fill
-    throw_bad_input(job.scene + no_emissivity);
+  std::optional<AtomicOutput> main_out, points_out;
+  Scene scene;
+  std::vector<SurfacePoint> points;
+  try {
+    if (on_ranks && job.stream == RowStreaming::No)
+      throw_bad_input("--stream no: on several MPI ranks the rows are always written as they are filled");
+    if (!points_path.empty()) {
+      namespace fs = std::filesystem;
+      if (fs::absolute(points_path).lexically_normal() == fs::absolute(job.output).lexically_normal())
+        throw_bad_input("--points-output: '" + points_path + "' is also the -o output");
+    }
+    if (root) main_out.emplace(job.output);
+    if (root && !points_path.empty()) points_out.emplace(points_path);
+
+    LoadOptions lo;
+    lo.flip_normals = job.flip_normals;
+    scene = load_scene(job.scene, lo);
+    if (job.on_load_warning && root)
+      for (const std::string& w : load_warnings(scene.stats)) job.on_load_warning(scene.source, w);
+    // Points are read before the (long) fill so that a bad file fails fast.
+    if (!job.points.empty()) points = load_points(job.points);
+
+    // A .vs3 input's `C emit=1`: Hottel's exchange factors instead of the geometric ones.
+    res.exchange_factors = view3d_asks_for_exchange_factors(job.scene, scene);
+    if (res.exchange_factors && all_zero(view3d_emissivities(job.scene)))  // before the fill
+      throw_bad_input(job.scene + no_emissivity);
+  } catch (...) { failure = std::current_exception(); }
+  if (on_ranks) ranks::agree(failure);
+  else if (failure) std::rethrow_exception(failure);
+  opt.points = static_cast<int>(points.size());
+  opt.exchange_factors = res.exchange_factors;
 
   // Every form can be written while the rows are filled (compute_view_factors decides). A
   // streamed run has neither enforcement nor exchange factors: View3D's header says 0 and 0.
@@ -268,21 +392,73 @@ ViewFactorJobResult run_view_factor_job(const ViewFactorJob& job) {
       res.emissivities = view3d_emissivities_of(job.scene, scene, mesh, agg);
       v3.emissivities = res.emissivities;
     }
-    streamed.emplace(main_out, job.format, agg, job.threshold, v3);
+    streamed.emplace(on_ranks ? nullptr : &*main_out, job.format, agg, job.threshold, v3);
     return [&streamed](int i, const double* row) { return streamed->add(i, row); };
   };
-  PatchViewFactors r = compute_view_factors(scene, opt);
+  if (on_ranks) {
+    // Threads per rank: the cores shared by the ranks on this machine, unless --threads says.
+    if (opt.threads <= 0)
+      opt.threads = std::max(1, int(std::thread::hardware_concurrency()) / std::max(1, ranks::local_size()));
+    opt.held_bytes_per_entry = held_bytes_per_entry(job.format);
+    opt.held_row_share = 1.0 / res.ranks;
+    opt.rows_for = [&](const PatchMesh& mesh) {
+      ranks::agree(nullptr);  // every rank is past patching and the memory check
+      std::vector<Vec3> centroids;
+      for (const Patch& p : mesh.patches) centroids.push_back(p.centroid);
+      const std::vector<double> cost = estimate_row_costs(mesh);
+      const std::vector<std::vector<int>> parts = partition_rows(centroids, cost, res.ranks);
+      for (const std::vector<int>& part : parts) {
+        res.rows_per_rank.push_back(int(part.size()));
+        double c = 0.0;
+        for (int i : part) c += cost[size_t(i)];
+        res.estimated_cost_per_rank.push_back(c);
+      }
+      return parts[size_t(ranks::rank())];
+    };
+  }
+  res.threads_per_rank = opt.threads > 0 ? opt.threads : omp_get_max_threads();
+  PatchViewFactors r;
+  try {
+    r = compute_view_factors(scene, opt);
+  } catch (const ranks::SharedError&) {
+    throw;  // agreed already (in rows_for)
+  } catch (...) {
+    // Before the fill this meets the others' agree() in rows_for, during it their agree() below.
+    if (on_ranks) ranks::agree(std::current_exception());
+    throw;
+  }
+  const auto filled = std::chrono::steady_clock::now();
   res.matrix_storage = r.streamed ? "streamed" : r.F.description();
   res.matrix_bytes = r.F.bytes();
-  opt.row_sink_for = nullptr;  // (it refers to this frame)
+  opt.row_sink_for = nullptr;  // (they refer to this frame)
+  opt.rows_for = nullptr;
   if (scene.settings.contains("view3d")) res.view3d_control = view3d_control_notes(scene.settings["view3d"], res.job);
   const Aggregation agg = make_aggregation(scene, r.mesh, job.level);
   res.streamed = r.streamed;
   res.stream_reason = r.stream_reason;
+  if (on_ranks) {
+    ranks::agree(streamed->failure());
+    res.fill_seconds_per_rank = ranks::all_values(std::chrono::duration<double>(filled - t0).count());
+    sum_over_ranks(r.fill);
+    try {  // the point factors: rank 0 alone (from the whole scene, which every rank has)
+      if (root) finish_points(res, points, r, agg, points_out);
+    } catch (...) { failure = std::current_exception(); }
+    ranks::agree(failure);
+    std::string temp = root ? main_out->temp_path() : std::string();
+    ranks::broadcast(temp);
+    res.sparse = streamed->finish_on_ranks(temp, job.output, res.checks);
+    try {
+      if (root) commit_all(*main_out, points_out);
+    } catch (...) { failure = std::current_exception(); }
+    ranks::agree(failure);
+    res.peak_memory_per_rank = ranks::all_values(peak_memory_bytes());
+    fill_result(res, scene, r, agg, t0);
+    return res;
+  }
   if (r.streamed) {
     res.sparse = streamed->finish(res.checks);
     finish_points(res, points, r, agg, points_out);
-    commit_all(main_out, points_out);
+    commit_all(*main_out, points_out);
     fill_result(res, scene, r, agg, t0);
     return res;
   }
@@ -309,9 +485,9 @@ ViewFactorJobResult run_view_factor_job(const ViewFactorJob& job) {
   }
   std::function<void(double)> writing;
   if (opt.progress) writing = [&opt](double f) { opt.progress("writing", f); };
-  res.sparse = write_view_factors(main_out, job.format, agg.names, agg.areas, res.F, job.threshold, v3, writing);
+  res.sparse = write_view_factors(*main_out, job.format, agg.names, agg.areas, res.F, job.threshold, v3, writing);
   finish_points(res, points, r, agg, points_out);
-  commit_all(main_out, points_out);
+  commit_all(*main_out, points_out);
   fill_result(res, scene, r, agg, t0);
   return res;
 }

@@ -17,6 +17,15 @@
 //   5. commits the outputs all or nothing: the matrix first, then the point factors; when the
 //      point factors fail to commit, the committed matrix is removed again.
 // It prints nothing.
+//
+// On the R ranks of an MPI run (distributed/ranks.h, R > 1), every rank loads the scene and
+// patches it, fills its share of the rows (a spatial partition balanced by estimated cost,
+// distributed/row_partition.h) and keeps them formatted; then every rank writes its rows into the
+// one file at their offsets (distributed/shared_file.h), so no rank ever holds the whole matrix.
+// Rank 0 alone opens, commits and names the outputs and computes the point factors. The rows are
+// always streamed, so what cannot be streamed (--by group, --enforce, C emit=1, subsurfaces) is
+// refused. The results are the bytes of one process's `--stream yes` run. Failures are agreed
+// over the ranks (ranks::agree): every rank throws ranks::SharedError, rank 0's files are removed.
 #pragma once
 
 #include <functional>
@@ -94,6 +103,18 @@ struct ViewFactorJobResult {
   double matrix_bytes = 0.0;      // bytes held by the patch matrix
   ViewFactorMemory memory;        // the estimate checked before the fill, and the limit
   FillStats fill;                 // pair counts, rays, kernel evaluations
+
+  // The processes (`mpirun -np R photometria viewfactors ...`): R ranks (1 without MPI), the fill's
+  // threads on each, and per rank its rows, their estimated cost (distributed/row_partition.h)
+  // and the seconds from the start to the end of its fill (empty on one rank).
+  int ranks = 1;
+  int threads_per_rank = 1;
+  std::vector<int> rows_per_rank;
+  std::vector<double> estimated_cost_per_rank;
+  std::vector<double> fill_seconds_per_rank;
+  std::vector<double> peak_memory_per_rank;  // bytes, each rank's peak resident memory at its end
+  // max / mean of fill_seconds_per_rank (1: perfectly balanced); 1 on one rank.
+  double load_imbalance() const;
 
   double seconds = 0.0;  // wall time of the whole job, s
 };

@@ -99,6 +99,13 @@ nlohmann::json viewfactor_summary_json(const ViewFactorJobResult& r) {
   if (!r.view3d_control.empty()) j["view3d_control"] = r.view3d_control;
   j["seconds"] = r.seconds;
   j["peak_memory_bytes"] = peak_memory_bytes();
+  j["ranks"] = {{"count", r.ranks},
+                {"threads_per_rank", r.threads_per_rank},
+                {"rows_per_rank", r.rows_per_rank},
+                {"estimated_cost_per_rank", r.estimated_cost_per_rank},
+                {"fill_seconds_per_rank", r.fill_seconds_per_rank},
+                {"peak_memory_bytes_per_rank", r.peak_memory_per_rank},
+                {"load_imbalance", r.load_imbalance()}};
   return j;
 }
 
@@ -154,6 +161,13 @@ std::string viewfactor_summary_text(const ViewFactorJobResult& r) {
     o << "  View3D C line:";
     for (size_t k = 0; k < r.view3d_control.size(); ++k) o << (k ? "; " : " ") << r.view3d_control[k];
     o << "\n";
+  }
+  if (r.ranks > 1) {
+    o << "  MPI: " << r.ranks << " ranks x " << r.threads_per_rank << " threads; rows per rank";
+    for (size_t k = 0; k < r.rows_per_rank.size(); ++k) o << (k ? ", " : " ") << r.rows_per_rank[k];
+    o << "; fill s per rank";
+    for (size_t k = 0; k < r.fill_seconds_per_rank.size(); ++k) o << (k ? ", " : " ") << r.fill_seconds_per_rank[k];
+    o << "; load imbalance (max / mean) " << r.load_imbalance() << "\n";
   }
   o << "  time " << r.seconds << " s, peak memory " << peak_memory_bytes() / 1048576.0 << " MiB\n";
   return o.str();

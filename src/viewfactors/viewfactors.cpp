@@ -70,7 +70,8 @@ void check_streamed(const MemoryEstimate& estimate, double patches, double surfa
   m.output_bytes = 8.0 * double(std::max(opt.points, 0)) * surfaces;
   m.storage = "streamed";
   m.matrix_bytes = 0.0;
-  m.estimated_bytes = estimate.per_patch_bytes * patches + threads * kStreamedRowBytes * patches + m.output_bytes;
+  m.estimated_bytes = estimate.per_patch_bytes * patches + threads * kStreamedRowBytes * patches + m.output_bytes +
+                      opt.held_bytes_per_entry * opt.held_row_share * patches * patches;
   m.limit_bytes = opt.max_memory_bytes > 0 ? opt.max_memory_bytes : available_memory_bytes();
   m.limit_source = opt.max_memory_bytes > 0 ? "--max-memory" : "MemAvailable";
   if (m.limit_bytes > 0 && m.estimated_bytes > m.limit_bytes)
@@ -79,6 +80,10 @@ void check_streamed(const MemoryEstimate& estimate, double patches, double surfa
                     " output surfaces) but " + memory_limit_description(m.limit_bytes, m.limit_source) +
                     "; raise --max-edge or raise --max-memory");
 }
+
+// The refusal of a run on several MPI ranks whose rows cannot be streamed.
+const std::string kRanksStream =
+    "on several MPI ranks the rows are written as they are filled, which is not possible here: ";
 
 // Why the fill cannot stream its rows ("" when it can, before patching: `mesh` null).
 std::string why_not_streamed(const ViewFactorOptions& opt, const Aggregation* agg, int patches) {
@@ -124,9 +129,10 @@ PatchViewFactors compute_view_factors(const Scene& scene, const ViewFactorOption
     const MemoryEstimate e = estimate_memory(scene, grid, opt.seed);
     const double surfaces = opt.level == AggregateLevel::Patch ? grid.patches : 0.0;
     const std::string why_not = why_not_streamed(opt, nullptr, 0);
+    if (opt.rows_for && !why_not.empty()) throw_bad_input(kRanksStream + why_not);
     if (opt.stream == RowStreaming::Yes && !why_not.empty()) throw_bad_input("--stream yes: " + why_not);
     stream = opt.stream != RowStreaming::No && why_not.empty() &&
-             (opt.stream == RowStreaming::Yes || !stored_choice(e, grid.patches, surfaces, opt).fits);
+             (opt.stream == RowStreaming::Yes || opt.rows_for || !stored_choice(e, grid.patches, surfaces, opt).fits);
     if (stream) check_streamed(e, grid.patches, surfaces, opt, r.memory);
     else check_stored(e, grid.patches, surfaces, opt, r.memory);
   }
@@ -134,13 +140,16 @@ PatchViewFactors compute_view_factors(const Scene& scene, const ViewFactorOption
   const MemoryEstimate estimate = estimate_memory(r.mesh, opt.seed);
   const Aggregation agg = make_aggregation(scene, r.mesh, opt.level);
   const std::string why_not = why_not_streamed(opt, &agg, r.mesh.size());
+  if (opt.rows_for && !why_not.empty()) throw_bad_input(kRanksStream + why_not);
   if (opt.stream == RowStreaming::Yes && !why_not.empty()) throw_bad_input("--stream yes: " + why_not);
   const StorageChoice storage = stored_choice(estimate, r.mesh.size(), agg.size(), opt);
   stream = stream && why_not.empty();
   if (opt.stream == RowStreaming::Auto && why_not.empty()) stream = !storage.fits;
+  if (opt.rows_for) stream = true;
   if (stream) {
     check_streamed(estimate, r.mesh.size(), agg.size(), opt, r.memory);
-    r.stream_reason = opt.stream == RowStreaming::Yes
+    r.stream_reason = opt.rows_for ? "the rows are filled on several MPI ranks"
+                      : opt.stream == RowStreaming::Yes
                           ? "requested (--stream yes)"
                           : "auto: the stored matrix and its output copy need an estimated " +
                                 format_bytes(storage.estimated_bytes) + ", over the limit";
@@ -168,6 +177,11 @@ PatchViewFactors compute_view_factors(const Scene& scene, const ViewFactorOption
   fill.layout = storage.layout;
   fill.precision = storage.precision;
   if (stream) fill.row_sink = opt.row_sink_for(r.mesh, agg);
+  std::vector<int> rows;
+  if (opt.rows_for) {
+    rows = opt.rows_for(r.mesh);
+    fill.rows = &rows;
+  }
   r.F = fill_form_factors(r.mesh, fill, r.fill);
   return r;
 }

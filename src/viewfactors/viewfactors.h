@@ -91,6 +91,15 @@ struct ViewFactorOptions {
   // Called once streaming is decided, before the fill, with the patches and the output surfaces;
   // returns the sink of the patch rows (row i of the patch matrix, N entries in patch order).
   std::function<std::function<bool(int, const double*)>(const PatchMesh&, const Aggregation&)> row_sink_for;
+  // One rank of an MPI run (viewfactors/job.h): called after patching and the memory check, before
+  // the fill, with the patches; returns the rows (patch indices) this process fills. The rows are
+  // then streamed (BadInput naming why when they cannot be). Empty function: every row.
+  std::function<std::vector<int>(const PatchMesh&)> rows_for;
+  // What the caller holds besides, for the memory estimate of a streamed fill: bytes per matrix
+  // entry of the rows it keeps (an MPI rank keeps its formatted rows until every rank is done),
+  // and the share of the rows it keeps (1 / ranks).
+  double held_bytes_per_entry = 0.0;
+  double held_row_share = 0.0;
 };
 
 // The memory estimate, made after patching and before visibility and the fill.
@@ -106,8 +115,9 @@ struct ViewFactorMemory {
   int surfaces = 0;            // G, rows of the output
   std::string storage;         // "dense double", "sparse float", ...
   std::string storage_reason;  // "requested (--matrix sparse)" or "auto: ..."
-  // Streamed: matrix_bytes and output_bytes are 0, and estimated_bytes is the per-patch arrays
-  // and the rows in flight (threads × kStreamedRowBytes × N).
+  // Streamed: matrix_bytes and output_bytes are 0, and estimated_bytes is the per-patch arrays,
+  // the rows in flight (threads × kStreamedRowBytes × N) and the rows held
+  // (held_bytes_per_entry × held_row_share × N², ViewFactorOptions).
   double matrix_bytes = 0.0, output_bytes = 0.0, estimated_bytes = 0.0;
   double limit_bytes = 0.0;  // the limit checked against (0 = unknown: not checked)
   std::string limit_source;  // "--max-memory" or "MemAvailable"

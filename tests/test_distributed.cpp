@@ -1,0 +1,246 @@
+// src/distributed: the row partition, the pieces of a shared file, the ranks of one process, and
+// `mpirun -np R photometria viewfactors` against one process (when the build has MPI).
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <numeric>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+#include "cli_run.h"
+#include "distributed/ranks.h"
+#include "distributed/row_partition.h"
+#include "distributed/shared_file.h"
+#include "patching/patching.h"
+#include "scene_builders.h"
+#include "scratch_dir.h"
+#include "util/error.h"
+
+namespace pm = photometria;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string read_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// Points on a 8 × 8 × 8 grid, in scrambled order.
+std::vector<pm::Vec3> grid_points() {
+  std::vector<pm::Vec3> p;
+  for (int k = 0; k < 512; ++k) {
+    const int m = (k * 307) % 512;
+    p.emplace_back(m % 8, (m / 8) % 8, m / 64);
+  }
+  return p;
+}
+
+}  // namespace
+
+TEST(MortonOrder, VisitsEveryPointOnceAndKeepsOctantsTogether) {
+  const std::vector<pm::Vec3> p = grid_points();
+  const std::vector<int> order = pm::morton_order(p);
+  std::vector<int> sorted = order;
+  std::sort(sorted.begin(), sorted.end());
+  for (int k = 0; k < 512; ++k) EXPECT_EQ(sorted[size_t(k)], k);
+  // A Z-order curve on a 2^3 grid of 8^3 points visits each of the 8 octants (4 × 4 × 4 points)
+  // in one run of 64.
+  for (int run = 0; run < 8; ++run) {
+    const pm::Vec3 first = p[size_t(order[size_t(run * 64)])];
+    for (int k = run * 64; k < run * 64 + 64; ++k) {
+      const pm::Vec3 q = p[size_t(order[size_t(k)])];
+      EXPECT_EQ(int(q.x()) / 4, int(first.x()) / 4);
+      EXPECT_EQ(int(q.y()) / 4, int(first.y()) / 4);
+      EXPECT_EQ(int(q.z()) / 4, int(first.z()) / 4);
+    }
+  }
+}
+
+TEST(PartitionRows, EveryRowOnceInCurveOrderBalancedByCost) {
+  const std::vector<pm::Vec3> p = grid_points();
+  std::vector<double> cost(p.size());
+  for (size_t i = 0; i < p.size(); ++i) cost[i] = 1.0 + double(i % 7);  // uneven rows
+  const double total = std::accumulate(cost.begin(), cost.end(), 0.0);
+  const double largest = *std::max_element(cost.begin(), cost.end());
+  for (int parts : {1, 2, 3, 4, 7}) {
+    const std::vector<std::vector<int>> split = pm::partition_rows(p, cost, parts);
+    ASSERT_EQ(split.size(), size_t(parts));
+    std::vector<int> all;
+    for (const std::vector<int>& part : split) {
+      double c = 0.0;
+      for (int i : part) c += cost[size_t(i)];
+      // Cut at the rows' midpoints: each part within one row's cost of its share.
+      EXPECT_NEAR(c, total / parts, largest) << parts << " parts";
+      all.insert(all.end(), part.begin(), part.end());
+    }
+    // Concatenated, the parts are the Morton order itself: each part a contiguous run of it.
+    EXPECT_EQ(all, pm::morton_order(p)) << parts << " parts";
+  }
+  // More parts than rows: some parts are empty, no row is lost.
+  const std::vector<std::vector<int>> many = pm::partition_rows({pm::Vec3(0, 0, 0), pm::Vec3(1, 0, 0)}, {1.0, 1.0}, 5);
+  size_t rows = 0;
+  for (const std::vector<int>& part : many) rows += part.size();
+  EXPECT_EQ(rows, 2u);
+}
+
+TEST(EstimateRowCosts, CountsTheFacingSourcesOfACube) {
+  // The inside of a unit cube, one patch per wall: each wall faces the other five (the sample is
+  // every patch when there are fewer than kCostSample).
+  const pm::PatchMesh mesh = pm::subdivide(builders::unit_cube(), pm::PatchingOptions{});
+  const std::vector<double> cost = pm::estimate_row_costs(mesh);
+  ASSERT_EQ(cost.size(), 6u);
+  for (double c : cost) EXPECT_DOUBLE_EQ(c, 1.0 + 5.0);  // the opposite wall and the four beside it
+}
+
+TEST(WritePieces, OneProcessPlacesEveryPieceAtItsOffset) {
+  const fs::path dir = test_scratch::fresh_dir("distributed_pieces");
+  const std::string path = (dir / "out.bin").string();
+  { std::ofstream(path) << "old contents that are longer than the new file"; }
+  const std::string a = "alpha,", b = "", c = "gamma\n";
+  // Pieces given out of order, one of them empty, one index held by nobody.
+  pm::write_pieces(path, "target.csv", "HEAD\n", {{2, &c}, {0, &a}, {1, &b}}, 4, "TAIL\n");
+  // The pieces overwrite the file's start; its old tail is the caller's (a fresh temporary file).
+  EXPECT_EQ(read_bytes(path).substr(0, 22), "HEAD\nalpha,gamma\nTAIL\n");
+  fs::remove_all(dir);
+}
+
+TEST(WritePieces, AMissingFileIsAnIoErrorNamingTheTarget) {
+  try {
+    const std::string piece = "x";
+    pm::write_pieces("/nonexistent-folder/part.tmp", "result.csv", "", {{0, &piece}}, 1, "");
+    FAIL() << "no error";
+  } catch (const pm::Error& e) {
+    EXPECT_EQ(e.kind(), pm::ErrorKind::Io);
+    EXPECT_NE(std::string(e.what()).find("cannot write 'result.csv'"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Ranks, OneProcessIsRankZeroOfOne) {
+  EXPECT_EQ(pm::ranks::size(), 1);
+  EXPECT_EQ(pm::ranks::rank(), 0);
+  EXPECT_FALSE(pm::ranks::distributed());
+  std::vector<double> v = {1.5, 2.5};
+  pm::ranks::sum(v);
+  EXPECT_EQ(v, (std::vector<double>{1.5, 2.5}));
+  EXPECT_EQ(pm::ranks::all_values(3.0), std::vector<double>{3.0});
+  EXPECT_NO_THROW(pm::ranks::agree(nullptr));
+  EXPECT_THROW(pm::ranks::agree(std::make_exception_ptr(pm::Error(pm::ErrorKind::Io, "x"))), pm::Error);
+}
+
+#ifdef PHOTOMETRIA_MPIEXEC
+
+namespace {
+
+// `mpirun -np R photometria ARGS`, allowed as root and on more ranks than cores (Open MPI reads
+// these variables; other MPIs ignore them).
+cli_test::CliRun run_ranks(int ranks, const std::string& args, const std::string& err_file) {
+  setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
+  setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
+  setenv("OMPI_MCA_rmaps_base_oversubscribe", "1", 1);
+  const std::string binary = PHOTOMETRIA_BINARY;
+  const std::string cmd = std::string(PHOTOMETRIA_MPIEXEC) + " -np " + std::to_string(ranks) + " " + binary;
+  // run_cli puts PHOTOMETRIA_BINARY first; here the launcher comes first.
+  const std::string full = cmd + " " + args + " 2>" + err_file;
+  cli_test::CliRun r{0, {}, {}};
+  FILE* pipe = popen(full.c_str(), "r");
+  char buf[4096];
+  size_t n;
+  while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) r.out.append(buf, n);
+  const int status = pclose(pipe);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.err = read_bytes(err_file);
+  fs::remove(err_file);
+  return r;
+}
+
+const std::string kRoom = std::string(PHOTOMETRIA_SOURCE_DIR) + "/tests/data/room_faces_05.vs3";
+const std::string kFast = " --by face --occluded-accuracy 1e-2 --quiet";
+
+// Lines of ours on stderr (mpirun adds its own report of a rank's non-zero exit).
+int lines(const std::string& s) {
+  int n = 0;
+  for (size_t at = s.find("photometria:"); at != std::string::npos; at = s.find("photometria:", at + 1)) ++n;
+  return n;
+}
+
+}  // namespace
+
+// The same bytes on 1, 2 and 4 ranks as one process's streamed run, in every form: each row is
+// computed the same wherever it is filled, and every rank's rows land at their offsets.
+TEST(MpiViewFactors, TheSameBytesOnAnyNumberOfRanks) {
+  const fs::path dir = test_scratch::fresh_dir("distributed_mpi_bytes");
+  const auto file = [&](const std::string& name) { return (dir / name).string(); };
+  struct Form {
+    std::string name, args;
+  };
+  for (const Form& form : {Form{"binary", "--format binary"}, Form{"csv", "--format csv"},
+                           Form{"sparse", "--format sparse --threshold 1e-4"}, Form{"view3d", "--format view3d"}}) {
+    const std::string one = file("one." + form.name);
+    const cli_test::CliRun single = cli_test::run_cli(
+        "viewfactors " + kRoom + kFast + " --stream yes " + form.args + " -o " + one + " --json", file("err"));
+    ASSERT_EQ(single.exit_code, 0) << single.err;
+    const std::string expected = read_bytes(one);
+    ASSERT_GT(expected.size(), 1000u);
+    for (int ranks : {1, 2, 4}) {
+      if (ranks != 2 && form.name != "binary" && form.name != "sparse") continue;  // (time)
+      const std::string out = file("r" + std::to_string(ranks) + "." + form.name);
+      const cli_test::CliRun r = run_ranks(ranks,
+                                           "viewfactors " + kRoom + kFast + " " + form.args + " -o " + out + " --json" +
+                                               (ranks == 1 ? " --stream yes" : ""),  // (one rank stores by default)
+                                           file("err"));
+      ASSERT_EQ(r.exit_code, 0) << form.name << " on " << ranks << " ranks: " << r.err;
+      EXPECT_TRUE(read_bytes(out) == expected) << form.name << " on " << ranks << " ranks differs";
+      // One summary (rank 0's), with the ranks and the same checks and counts as one process.
+      const nlohmann::json j = nlohmann::json::parse(r.out);
+      const nlohmann::json s = nlohmann::json::parse(single.out);
+      EXPECT_EQ(j["ranks"]["count"], ranks);
+      EXPECT_EQ(j["checks"], s["checks"]);
+      EXPECT_EQ(j["pairs"], s["pairs"]);
+      if (form.name == "sparse") { EXPECT_EQ(j["sparse"]["dropped_row_sum_max"], s["sparse"]["dropped_row_sum_max"]); }
+      if (ranks > 1) {
+        const std::vector<int> rows = j["ranks"]["rows_per_rank"];
+        EXPECT_EQ(std::accumulate(rows.begin(), rows.end(), 0), 302);
+        EXPECT_GE(j["ranks"]["load_imbalance"].get<double>(), 1.0);
+      }
+    }
+  }
+  fs::remove_all(dir);
+}
+
+TEST(MpiViewFactors, AnUnwritableOutputEndsEveryRankWithOneMessage) {
+  const cli_test::CliRun r =
+      run_ranks(2, "viewfactors " + kRoom + kFast + " -o /nonexistent-folder/F.csv", "/tmp/pm_mpi_err.txt");
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("photometria: cannot write '/nonexistent-folder/F.csv'"), std::string::npos) << r.err;
+  EXPECT_EQ(lines(r.err), 1) << r.err;
+}
+
+TEST(MpiViewFactors, WhatCannotBeStreamedIsRefusedOnRanks) {
+  const fs::path dir = test_scratch::fresh_dir("distributed_mpi_refused");
+  const auto file = [&](const std::string& name) { return (dir / name).string(); };
+  const std::string out = file("F.csv");
+  const cli_test::CliRun group = run_ranks(2, "viewfactors " + kRoom + " --by group -o " + out, file("err"));
+  EXPECT_EQ(group.exit_code, 1) << group.err;
+  EXPECT_NE(group.err.find("on several MPI ranks the rows are written as they are filled"), std::string::npos)
+      << group.err;
+  EXPECT_NE(group.err.find("--by group"), std::string::npos) << group.err;
+  EXPECT_EQ(lines(group.err), 1) << group.err;
+  EXPECT_FALSE(fs::exists(out));
+  for (const auto& entry : fs::directory_iterator(dir)) ADD_FAILURE() << "left behind: " << entry.path();
+
+  const std::string cornell = std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/cornell_box.obj";
+  const cli_test::CliRun solve = run_ranks(2, "solve " + cornell + " -o " + file("x.vtu"), file("err"));
+  EXPECT_EQ(solve.exit_code, 1) << solve.err;
+  EXPECT_NE(solve.err.find("'solve' runs as one process"), std::string::npos) << solve.err;
+  EXPECT_EQ(lines(solve.err), 1) << solve.err;
+  fs::remove_all(dir);
+}
+
+#endif
