@@ -235,6 +235,17 @@ TEST(MpiViewFactors, WhatCannotBeStreamedIsRefusedOnRanks) {
   EXPECT_FALSE(fs::exists(out));
   for (const auto& entry : fs::directory_iterator(dir)) ADD_FAILURE() << "left behind: " << entry.path();
 
+  // The memory check is per rank, before the fill; --stream no cannot be honoured on ranks.
+  const cli_test::CliRun memory =
+      run_ranks(2, "viewfactors " + kRoom + " --by face --max-memory 100K -o " + out, file("err"));
+  EXPECT_EQ(memory.exit_code, 1) << memory.err;
+  EXPECT_NE(memory.err.find("--max-memory is 100 KiB"), std::string::npos) << memory.err;
+  EXPECT_EQ(lines(memory.err), 1) << memory.err;
+  const cli_test::CliRun stored = run_ranks(2, "viewfactors " + kRoom + " --by face --stream no -o " + out, file("err"));
+  EXPECT_EQ(stored.exit_code, 1) << stored.err;
+  EXPECT_NE(stored.err.find("--stream no: on several MPI ranks"), std::string::npos) << stored.err;
+  EXPECT_FALSE(fs::exists(out));
+
   const std::string cornell = std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/cornell_box.obj";
   const cli_test::CliRun solve = run_ranks(2, "solve " + cornell + " -o " + file("x.vtu"), file("err"));
   EXPECT_EQ(solve.exit_code, 1) << solve.err;

@@ -395,14 +395,17 @@ ViewFactorJobResult run_view_factor_job(const ViewFactorJob& job) {
     streamed.emplace(on_ranks ? nullptr : &*main_out, job.format, agg, job.threshold, v3);
     return [&streamed](int i, const double* row) { return streamed->add(i, row); };
   };
+  auto fill_start = t0;  // on ranks: when this rank's rows begin (rows_for)
   if (on_ranks) {
     // Threads per rank: the cores shared by the ranks on this machine, unless --threads says.
     if (opt.threads <= 0)
       opt.threads = std::max(1, int(std::thread::hardware_concurrency()) / std::max(1, ranks::local_size()));
     opt.held_bytes_per_entry = held_bytes_per_entry(job.format);
     opt.held_row_share = 1.0 / res.ranks;
+    opt.ranks_per_machine = ranks::local_size();
     opt.rows_for = [&](const PatchMesh& mesh) {
       ranks::agree(nullptr);  // every rank is past patching and the memory check
+      fill_start = std::chrono::steady_clock::now();
       std::vector<Vec3> centroids;
       for (const Patch& p : mesh.patches) centroids.push_back(p.centroid);
       const std::vector<double> cost = estimate_row_costs(mesh);
@@ -438,7 +441,7 @@ ViewFactorJobResult run_view_factor_job(const ViewFactorJob& job) {
   res.stream_reason = r.stream_reason;
   if (on_ranks) {
     ranks::agree(streamed->failure());
-    res.fill_seconds_per_rank = ranks::all_values(std::chrono::duration<double>(filled - t0).count());
+    res.fill_seconds_per_rank = ranks::all_values(std::chrono::duration<double>(filled - fill_start).count());
     sum_over_ranks(r.fill);
     try {  // the point factors: rank 0 alone (from the whole scene, which every rank has)
       if (root) finish_points(res, points, r, agg, points_out);

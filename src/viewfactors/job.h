@@ -106,7 +106,7 @@ struct ViewFactorJobResult {
 
   // The processes (`mpirun -np R photometria viewfactors ...`): R ranks (1 without MPI), the fill's
   // threads on each, and per rank its rows, their estimated cost (distributed/row_partition.h)
-  // and the seconds from the start to the end of its fill (empty on one rank).
+  // and the seconds its rows took to fill (empty on one rank).
   int ranks = 1;
   int threads_per_rank = 1;
   std::vector<int> rows_per_rank;

@@ -72,8 +72,12 @@ void check_streamed(const MemoryEstimate& estimate, double patches, double surfa
   m.matrix_bytes = 0.0;
   m.estimated_bytes = estimate.per_patch_bytes * patches + threads * kStreamedRowBytes * patches + m.output_bytes +
                       opt.held_bytes_per_entry * opt.held_row_share * patches * patches;
-  m.limit_bytes = opt.max_memory_bytes > 0 ? opt.max_memory_bytes : available_memory_bytes();
-  m.limit_source = opt.max_memory_bytes > 0 ? "--max-memory" : "MemAvailable";
+  // The ranks of an MPI run on one machine share its available memory; --max-memory is per rank.
+  const int sharing = std::max(opt.ranks_per_machine, 1);
+  m.limit_bytes = opt.max_memory_bytes > 0 ? opt.max_memory_bytes : available_memory_bytes() / sharing;
+  m.limit_source = opt.max_memory_bytes > 0 ? "--max-memory"
+                   : sharing > 1            ? "MemAvailable shared by " + std::to_string(sharing) + " ranks"
+                                            : "MemAvailable";
   if (m.limit_bytes > 0 && m.estimated_bytes > m.limit_bytes)
     throw_bad_input("view factors need an estimated " + format_bytes(m.estimated_bytes) + " for " +
                     format_patch_count(patches) + " patches (rows streamed, " + format_patch_count(surfaces) +

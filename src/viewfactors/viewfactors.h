@@ -100,6 +100,9 @@ struct ViewFactorOptions {
   // and the share of the rows it keeps (1 / ranks).
   double held_bytes_per_entry = 0.0;
   double held_row_share = 0.0;
+  // Processes sharing this machine's memory (the ranks of an MPI run on it): without
+  // max_memory_bytes, the limit of a streamed fill is MemAvailable divided among them.
+  int ranks_per_machine = 1;
 };
 
 // The memory estimate, made after patching and before visibility and the fill.
