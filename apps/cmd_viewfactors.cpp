@@ -125,7 +125,9 @@ Command add_viewfactors_command(CLI::App& app) {
   sub->add_option("--matrix-precision", a->matrix_precision,
                   "Patch form-factor entries: auto | double | float (default auto: double unless only float fits the "
                   "memory limit; float halves the matrix)");
-  sub->add_option("--threads", a->threads, "Threads for the fill (default: all cores; under mpirun, the cores divided among the ranks on the machine)")
+  sub->add_option(
+         "--threads", a->threads,
+         "Threads for the fill (default: all cores; under mpirun, the cores divided among the ranks on the machine)")
       ->check(options::integer_in(0, options::kMaxThreads));
   sub->add_flag("--flip-normals", a->flip_normals, "Reverse every face (inside-out exports)");
   sub->add_flag("--json", a->json, "Print a machine-readable summary on stdout");
