@@ -69,20 +69,37 @@ TEST(PartitionRows, EveryRowOnceInCurveOrderBalancedByCost) {
   for (size_t i = 0; i < p.size(); ++i) cost[i] = 1.0 + double(i % 7);  // uneven rows
   const double total = std::accumulate(cost.begin(), cost.end(), 0.0);
   const double largest = *std::max_element(cost.begin(), cost.end());
-  for (int parts : {1, 2, 3, 4, 7}) {
-    const std::vector<std::vector<int>> split = pm::partition_rows(p, cost, parts);
-    ASSERT_EQ(split.size(), size_t(parts));
-    std::vector<int> all;
-    for (const std::vector<int>& part : split) {
-      double c = 0.0;
-      for (int i : part) c += cost[size_t(i)];
-      // Cut at the rows' midpoints: each part within one row's cost of its share.
-      EXPECT_NEAR(c, total / parts, largest) << parts << " parts";
-      all.insert(all.end(), part.begin(), part.end());
+  const std::vector<int> curve = pm::morton_order(p);
+  std::vector<int> position(p.size());
+  for (size_t k = 0; k < curve.size(); ++k) position[size_t(curve[k])] = int(k);
+  for (int chunks : {1, 4, 16}) {
+    for (int parts : {1, 2, 3, 4, 7}) {
+      const std::vector<std::vector<int>> split = pm::partition_rows(p, cost, parts, chunks);
+      ASSERT_EQ(split.size(), size_t(parts));
+      std::vector<int> all;
+      for (const std::vector<int>& part : split) {
+        double c = 0.0;
+        for (int i : part) c += cost[size_t(i)];
+        // Cut at the rows' midpoints: each chunk within one row's cost of its share.
+        EXPECT_NEAR(c, total / parts, chunks * largest) << parts << " parts of " << chunks << " chunks";
+        // In curve order within the part.
+        for (size_t k = 1; k < part.size(); ++k) EXPECT_LT(position[size_t(part[k - 1])], position[size_t(part[k])]);
+        all.insert(all.end(), part.begin(), part.end());
+      }
+      // One chunk per part: the parts, concatenated, are the Morton order itself (contiguous runs).
+      if (chunks == 1) {
+        EXPECT_EQ(all, curve) << parts << " parts";
+      }
+      std::sort(all.begin(), all.end());
+      for (size_t k = 0; k < all.size(); ++k) ASSERT_EQ(all[k], int(k)) << "every row exactly once";
     }
-    // Concatenated, the parts are the Morton order itself: each part a contiguous run of it.
-    EXPECT_EQ(all, pm::morton_order(p)) << parts << " parts";
   }
+  // Chunks dealt in turn: with 2 parts of 4 chunks, part 0 holds the curve's 1st, 3rd, 5th and
+  // 7th eighths (equal costs here).
+  const std::vector<double> flat(p.size(), 1.0);
+  const std::vector<std::vector<int>> dealt = pm::partition_rows(p, flat, 2, 4);
+  for (int i : dealt[0]) EXPECT_EQ(position[size_t(i)] / 64 % 2, 0);
+  for (int i : dealt[1]) EXPECT_EQ(position[size_t(i)] / 64 % 2, 1);
   // More parts than rows: some parts are empty, no row is lost.
   const std::vector<std::vector<int>> many = pm::partition_rows({pm::Vec3(0, 0, 0), pm::Vec3(1, 0, 0)}, {1.0, 1.0}, 5);
   size_t rows = 0;
@@ -241,7 +258,8 @@ TEST(MpiViewFactors, WhatCannotBeStreamedIsRefusedOnRanks) {
   EXPECT_EQ(memory.exit_code, 1) << memory.err;
   EXPECT_NE(memory.err.find("--max-memory is 100 KiB"), std::string::npos) << memory.err;
   EXPECT_EQ(lines(memory.err), 1) << memory.err;
-  const cli_test::CliRun stored = run_ranks(2, "viewfactors " + kRoom + " --by face --stream no -o " + out, file("err"));
+  const cli_test::CliRun stored =
+      run_ranks(2, "viewfactors " + kRoom + " --by face --stream no -o " + out, file("err"));
   EXPECT_EQ(stored.exit_code, 1) << stored.err;
   EXPECT_NE(stored.err.find("--stream no: on several MPI ranks"), std::string::npos) << stored.err;
   EXPECT_FALSE(fs::exists(out));

@@ -64,17 +64,19 @@ std::vector<double> estimate_row_costs(const PatchMesh& mesh) {
 }
 
 std::vector<std::vector<int>> partition_rows(const std::vector<Vec3>& centroids, const std::vector<double>& costs,
-                                             int parts) {
+                                             int parts, int chunks_per_part) {
   parts = std::max(parts, 1);
+  const int chunks = parts * std::max(chunks_per_part, 1);
   std::vector<std::vector<int>> out(static_cast<size_t>(parts));
   const std::vector<int> order = morton_order(centroids);
   const double total = std::accumulate(costs.begin(), costs.end(), 0.0);
   double before = 0.0;  // the cost of the rows before this one along the curve
   for (int i : order) {
-    // The part whose share of the total holds this row's midpoint along the running cost.
+    // The chunk whose share of the total holds this row's midpoint along the running cost; the
+    // chunks go to the parts in turn.
     const double middle = before + 0.5 * costs[size_t(i)];
-    const int part = total > 0.0 ? std::min(parts - 1, int(middle / total * parts)) : 0;
-    out[size_t(part)].push_back(i);
+    const int chunk = total > 0.0 ? std::min(chunks - 1, int(middle / total * chunks)) : 0;
+    out[size_t(chunk % parts)].push_back(i);
     before += costs[size_t(i)];
   }
   return out;

@@ -183,10 +183,9 @@ StorageChoice check_storage(const MemoryEstimate& estimate, double patches, doub
 }
 
 std::string memory_limit_description(double limit_bytes, const std::string& limit_source) {
-  return limit_source == "--max-memory"
-             ? "--max-memory is " + format_bytes(limit_bytes)
-             : "only " + format_bytes(limit_bytes) + " is available (" + limit_source +
-                   "; set --max-memory to override)";
+  return limit_source == "--max-memory" ? "--max-memory is " + format_bytes(limit_bytes)
+                                        : "only " + format_bytes(limit_bytes) + " is available (" + limit_source +
+                                              "; set --max-memory to override)";
 }
 
 std::string StorageChoice::limit_description() const { return memory_limit_description(limit_bytes, limit_source); }
