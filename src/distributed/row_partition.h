@@ -26,10 +26,11 @@ inline constexpr int kCostSample = 256;
 // Per patch i: 1 + (sources j facing i, estimated from an even sample of the patches). Size N.
 std::vector<double> estimate_row_costs(const PatchMesh& mesh);
 
-// K, the chunks per rank: on the 5,380-face city blocks (make_meshes.py --street-canyons 2) on 2
-// ranks, the slower rank's fill time was 1.13 times the mean with K = 1, 1.06 with K = 4 and 1.01
-// with K = 16 (docs/performance.md "On MPI ranks").
-inline constexpr int kChunksPerRank = 16;
+// K, the chunks per rank. On 2 ranks the slower rank's fill time over the mean was, on the 5,380-face
+// city blocks (make_meshes.py --street-canyons 2), 1.13 with K = 1 and 1.01 with K = 16 or 64; on
+// the 6,332-face room with a table (--many-faces 0.1), whose costly rows crowd around the table,
+// 1.18 with K = 16, 1.08 with K = 64 and 1.07 with K = 256 (docs/performance.md "On MPI ranks").
+inline constexpr int kChunksPerRank = 64;
 
 // The rows of `parts` ranks (parts >= 1): each row (0 .. costs.size() - 1) in exactly one part.
 // The Morton order of `centroids` is cut into parts × chunks_per_part chunks where the running
