@@ -87,9 +87,7 @@ TEST(PartitionRows, EveryRowOnceInCurveOrderBalancedByCost) {
         all.insert(all.end(), part.begin(), part.end());
       }
       // One chunk per part: the parts, concatenated, are the Morton order itself (contiguous runs).
-      if (chunks == 1) {
-        EXPECT_EQ(all, curve) << parts << " parts";
-      }
+      if (chunks == 1) { EXPECT_EQ(all, curve) << parts << " parts"; }
       std::sort(all.begin(), all.end());
       for (size_t k = 0; k < all.size(); ++k) ASSERT_EQ(all[k], int(k)) << "every row exactly once";
     }
