@@ -16,11 +16,10 @@ struct CliRun {
   std::string out, err;
 };
 
-// Runs `PHOTOMETRIA_BINARY args` (the macro is set for every test target), stdout through a
-// pipe, stderr through `err_file`, which is removed afterwards. exit_code is −1 when the
-// process did not exit normally (killed by a signal).
-inline CliRun run_cli(const std::string& args, const std::string& err_file) {
-  const std::string cmd = std::string(PHOTOMETRIA_BINARY) + " " + args + " 2>" + err_file;
+// Runs the shell command `command`, stdout through a pipe, stderr through `err_file`, which is
+// removed afterwards. exit_code is −1 when the process did not exit normally (killed by a signal).
+inline CliRun run_command(const std::string& command, const std::string& err_file) {
+  const std::string cmd = command + " 2>" + err_file;
   CliRun r{0, {}, {}};
   FILE* pipe = popen(cmd.c_str(), "r");
   char buf[4096];
@@ -35,6 +34,11 @@ inline CliRun run_cli(const std::string& args, const std::string& err_file) {
   in.close();
   std::filesystem::remove(err_file);
   return r;
+}
+
+// Runs `PHOTOMETRIA_BINARY args` (the macro is set for every test target) as run_command.
+inline CliRun run_cli(const std::string& args, const std::string& err_file) {
+  return run_command(std::string(PHOTOMETRIA_BINARY) + " " + args, err_file);
 }
 
 }  // namespace cli_test

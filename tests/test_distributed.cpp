@@ -159,20 +159,9 @@ cli_test::CliRun run_ranks(int ranks, const std::string& args, const std::string
   setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
   setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
   setenv("OMPI_MCA_rmaps_base_oversubscribe", "1", 1);
-  const std::string binary = PHOTOMETRIA_BINARY;
-  const std::string cmd = std::string(PHOTOMETRIA_MPIEXEC) + " -np " + std::to_string(ranks) + " " + binary;
-  // run_cli puts PHOTOMETRIA_BINARY first; here the launcher comes first.
-  const std::string full = cmd + " " + args + " 2>" + err_file;
-  cli_test::CliRun r{0, {}, {}};
-  FILE* pipe = popen(full.c_str(), "r");
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) r.out.append(buf, n);
-  const int status = pclose(pipe);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.err = read_bytes(err_file);
-  fs::remove(err_file);
-  return r;
+  return cli_test::run_command(
+      std::string(PHOTOMETRIA_MPIEXEC) + " -np " + std::to_string(ranks) + " " + PHOTOMETRIA_BINARY + " " + args,
+      err_file);
 }
 
 const std::string kRoom = std::string(PHOTOMETRIA_SOURCE_DIR) + "/tests/data/room_faces_05.vs3";

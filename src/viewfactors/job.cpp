@@ -184,24 +184,6 @@ double held_bytes_per_entry(ViewFactorFormat format) {
 
 // The fill's counts summed over the ranks, its maxima the largest of any rank's.
 void sum_over_ranks(FillStats& f) {
-  std::vector<long long> counts = {f.pairs_evaluated,
-                                   f.pairs_backfacing,
-                                   f.pairs_tested,
-                                   f.pairs_culled,
-                                   f.pairs_occluded,
-                                   f.pairs_blocked_whole,
-                                   f.rays_cast,
-                                   f.above_unoccluded,
-                                   f.points_rescaled,
-                                   f.pairs_fixed_rule,
-                                   f.pairs_gauss,
-                                   f.pairs_adaptive,
-                                   f.pairs_exact_rectangles,
-                                   f.kernel_evaluations,
-                                   f.pairs_occluded_adaptive,
-                                   f.occluded_evaluations,
-                                   f.occluded_budget_exhausted};
-  ranks::sum(counts);
   long long* fields[] = {&f.pairs_evaluated,
                          &f.pairs_backfacing,
                          &f.pairs_tested,
@@ -219,6 +201,9 @@ void sum_over_ranks(FillStats& f) {
                          &f.pairs_occluded_adaptive,
                          &f.occluded_evaluations,
                          &f.occluded_budget_exhausted};
+  std::vector<long long> counts;
+  for (long long* field : fields) counts.push_back(*field);
+  ranks::sum(counts);
   for (size_t k = 0; k < counts.size(); ++k) *fields[k] = counts[k];
   f.max_point_row_sum = ranks::max(f.max_point_row_sum);
   f.max_row_error_estimate = ranks::max(f.max_row_error_estimate);
