@@ -187,6 +187,55 @@ TEST(VisibilityOccluders, AnLShapedGroupIsSplitIntoConvexPiecesCoveringTheSameAr
   EXPECT_NEAR(ring_area, 15 * 0.0625, 1e-14);
 }
 
+TEST(VisibilityOccluders, GroundAroundCityBlocksIsAFewConvexPiecesCoveringIt) {
+  // 3 × 3 buildings' footprints (8 × 8 cells) cut out of a 40 × 40 ground, streets 4 cells
+  // wide: 1,024 quads in one plane with nine holes. The pieces grow quad by quad, so this also
+  // takes the merging's every path (strips, strips into rectangles, refusals at the holes).
+  Scene s = empty_scene();
+  auto building = [](int i) { return i % 12 >= 4 && i < 36; };
+  add_grid(s, 0.0, 0.0, 0.5, 0.5, 40, 40, 0.0, false, [&](int i, int j) { return building(i) && building(j); });
+  const ShaftCuller culler(s);
+  ASSERT_EQ(culler.scene_face_count(), 1024);
+  EXPECT_LE(culler.occluder_count(), 24);  // 14 as grown now; a strip per row of cells would be 16 + 36
+  double area = 0.0;
+  std::vector<int> covered(1024, 0);
+  for (int o = 0; o < culler.occluder_count(); ++o) {
+    const Polygon& w = culler.occluder_polygons()[size_t(o)];
+    EXPECT_TRUE(is_convex(w)) << o;
+    area += polygon_area(w);
+    for (int f : culler.occluder_faces(o)) {
+      EXPECT_EQ(culler.occluder_of_face(f), o);
+      ++covered[size_t(f)];
+    }
+  }
+  EXPECT_NEAR(area, 1024 * 0.25, 1e-9);
+  EXPECT_EQ(std::count(covered.begin(), covered.end(), 1), 1024);
+  for (int j = 0; j < 80; ++j)  // quarter-cell points: inside one occluder on the ground, none in a hole
+    for (int i = 0; i < 80; ++i) {
+      const Vec3 y((i + 0.5) * 0.25, (j + 0.5) * 0.25, 0.0);
+      const bool hole = building(i / 2) && building(j / 2);
+      int count = 0;
+      for (const Polygon& w : culler.occluder_polygons()) count += inside(w, Vec3::UnitZ(), y);
+      ASSERT_EQ(count, hole ? 0 : 1) << y.transpose();
+    }
+}
+
+TEST(VisibilityOccluders, AFaceThatIsNotConvexStaysAnOccluderOfItsOwn) {
+  // An L-shaped hexagon beside two quads of the same plane: the quads merge, the L stays alone
+  // (pieces grow only from convex faces, so that a union is convex when its two seams are).
+  Scene s = empty_scene();
+  s.vertices = {{0, 0, 0}, {2, 0, 0}, {2, 1, 0}, {1, 1, 0}, {1, 2, 0}, {0, 2, 0},  // the L
+                {3, 0, 0}, {3, 1, 0}, {4, 0, 0}, {4, 1, 0}};
+  s.faces.push_back({{0, 1, 2, 3, 4, 5}, 0, 0, 0});
+  s.faces.push_back({{1, 6, 7, 2}, 0, 0, 1});
+  s.faces.push_back({{6, 8, 9, 7}, 0, 0, 2});
+  const ShaftCuller culler(s);
+  ASSERT_EQ(culler.occluder_count(), 2);
+  EXPECT_EQ(culler.occluder_faces(0), std::vector<int>{0});
+  EXPECT_EQ(culler.occluder_faces(1), (std::vector<int>{1, 2}));
+  EXPECT_NEAR(polygon_area(culler.occluder_polygons()[1]), 2.0, 1e-14);
+}
+
 TEST(VisibilityOccluders, ExactFactorsThroughMergedOccludersEqualThoseThroughTheFaces) {
   Scene s = empty_scene();
   // A plate of 6 × 5 quads, an L of quads and a meshed box between a floor receiver and a source above.
