@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "commands.h"
+#include "distributed/ranks.h"
 #include "io/atomic_file.h"
 #include "io/vtu.h"
 #include "options.h"
@@ -85,7 +86,67 @@ double bounding_diagonal(const pm::Scene& scene) {
   return (hi - lo).norm();
 }
 
+pm::Scene load_and_configure(const SolveArgs& a, pm::SolveOptions& opt, bool warn);
+
+// Under mpirun the solve is split over the ranks (pipeline/solve.h); rank 0 alone holds the
+// output, shows progress and prints. A failure on any rank is agreed (distributed/ranks.h) before
+// the solve, after it and around the write, so that every rank ends with the same error.
 int run_solve(const SolveArgs& a) {
+  const bool root = pm::ranks::is_root(), on_ranks = pm::ranks::distributed();
+  std::exception_ptr failure;
+  auto agree = [&] {
+    if (!on_ranks || !failure) {
+      if (on_ranks) pm::ranks::agree(failure);
+      else if (failure) std::rethrow_exception(failure);
+      return;
+    }
+    try {
+      std::rethrow_exception(failure);
+    } catch (const pm::ranks::SharedError&) {
+      throw;  // agreed already, inside the solve: every rank has it
+    } catch (...) { pm::ranks::agree(failure); }
+  };
+  std::optional<pm::AtomicOutput> out;
+  std::string output;
+  pm::Scene scene;
+  pm::SolveOptions opt;
+  try {
+    output = a.output.empty() ? std::filesystem::path(a.scene).stem().string() + ".vtu" : a.output;
+    if (root) out.emplace(output);  // fail on an unwritable path before the long work
+    scene = load_and_configure(a, opt, root);
+  } catch (...) { failure = std::current_exception(); }
+  agree();
+  // Progress and the time left on stderr: a bar on a terminal, a line every 5 s elsewhere.
+  pm::ProgressReporter progress(std::cerr, isatty(STDERR_FILENO));
+  if (!a.quiet && root) opt.progress = progress.callback();
+  pm::SolveResult result;
+  try {
+    result = pm::solve_scene(scene, opt);
+  } catch (...) { failure = std::current_exception(); }
+  progress.clear();
+  agree();
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    if (root) {
+      pm::write_vtu(*out, pm::result_grid(scene, result));
+      out->commit();
+    }
+  } catch (...) { failure = std::current_exception(); }
+  agree();
+  result.summary.stage_seconds.emplace_back(
+      "write", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  if (!root) return 0;
+  if (!a.quiet) std::cerr << pm::summary_table(scene, result.summary) << "  output                " << output << "\n";
+  if (a.json) {
+    nlohmann::json j = pm::summary_json(scene, result.summary);
+    j["output"] = output;
+    std::cout << j.dump(2) << "\n";
+  }
+  return 0;
+}
+
+// Loads the scene and fills the solve's options from the command line and the scene's settings.
+pm::Scene load_and_configure(const SolveArgs& a, pm::SolveOptions& opt, bool warn) {
   pm::LoadOptions load;
   load.default_reflectance = parse_rgb(a.reflectance, "--reflectance");
   load.default_emission = parse_rgb(a.emission, "--emission");
@@ -94,15 +155,11 @@ int run_solve(const SolveArgs& a) {
   double max_memory = 0.0;  // 0 = MemAvailable
   if (a.max_memory && !pm::parse_memory_size(*a.max_memory, max_memory))
     pm::throw_bad_input("--max-memory: '" + *a.max_memory + "' is not a size (e.g. 512M, 2G, 1.5GiB)");
-  const std::string output = a.output.empty() ? std::filesystem::path(a.scene).stem().string() + ".vtu" : a.output;
-  pm::AtomicOutput out(output);  // fail on an unwritable path before the long work
-
-  const pm::Scene scene = pm::load_scene(a.scene, load);
-  if (!a.quiet)
+  pm::Scene scene = pm::load_scene(a.scene, load);
+  if (!a.quiet && warn)
     for (const std::string& w : pm::load_warnings(scene.stats))
       std::cerr << "photometria: warning: " << scene.source << ": " << w << "\n";
   const nlohmann::json& st = scene.settings;
-  pm::SolveOptions opt;
   // Default patch size: 1/16 of the scene's bounding diagonal (about 10 × 10 patches per wall).
   opt.patching.max_edge = setting(a.max_edge, st, "max_edge", bounding_diagonal(scene) / 16.0);
   opt.patching.max_area = setting(a.max_area, st, "max_area", 0.0);
@@ -140,25 +197,7 @@ int run_solve(const SolveArgs& a) {
   opt.matrix_layout = pm::parse_layout(a.matrix);
   opt.matrix_precision = pm::parse_precision(a.matrix_precision);
   opt.seed = a.seed;
-  // Progress and the time left on stderr: a bar on a terminal, a line every 5 s elsewhere.
-  pm::ProgressReporter progress(std::cerr, isatty(STDERR_FILENO));
-  if (!a.quiet) opt.progress = progress.callback();
-
-  pm::SolveResult result = pm::solve_scene(scene, opt);
-  progress.clear();
-  const auto t0 = std::chrono::steady_clock::now();
-  pm::write_vtu(out, pm::result_grid(scene, result));
-  out.commit();
-  result.summary.stage_seconds.emplace_back(
-      "write", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-
-  if (!a.quiet) std::cerr << pm::summary_table(scene, result.summary) << "  output                " << output << "\n";
-  if (a.json) {
-    nlohmann::json j = pm::summary_json(scene, result.summary);
-    j["output"] = output;
-    std::cout << j.dump(2) << "\n";
-  }
-  return 0;
+  return scene;
 }
 
 }  // namespace

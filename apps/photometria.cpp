@@ -35,11 +35,12 @@ int run_command(int argc, char** argv) {
   try {
     for (const Command& c : commands)
       if (c.subcommand->parsed()) {
-        if (pm::ranks::distributed() && c.subcommand->get_name() != "viewfactors")
+        const std::string name = c.subcommand->get_name();
+        if (pm::ranks::distributed() && name != "viewfactors" && name != "solve")
           pm::ranks::agree(std::make_exception_ptr(pm::Error(
-              pm::ErrorKind::BadInput, "'" + c.subcommand->get_name() +
-                                           "' runs as one process; of the commands, only 'viewfactors' is split "
-                                           "over MPI ranks (start it without mpirun)")));
+              pm::ErrorKind::BadInput, "'" + name +
+                                           "' runs as one process; of the commands, 'solve' and "
+                                           "'viewfactors' are split over MPI ranks (start it without mpirun)")));
         const int code = c.run();
         pm::finish_standard_output();  // a summary lost on a full disk is an error too
         return code;

@@ -1,11 +1,16 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <algorithm>
+#include <barrier>
+#include <numeric>
 #include <random>
+#include <thread>
 
 #include "formfactors/formfactors.h"
 #include "formfactors/storage.h"
 #include "scene_builders.h"
+#include "solver/block_gauss_seidel.h"
 #include "solver/gauss_seidel.h"
 #include "util/error.h"
 
@@ -142,4 +147,88 @@ TEST(GaussSeidel, ReportsNonConvergenceAtTheCap) {
   EXPECT_FALSE(rep.converged);
   EXPECT_EQ(rep.iterations, 5);
   EXPECT_GT(rep.residual, 1e-12);
+}
+
+namespace {
+
+// Block Jacobi–Gauss–Seidel's problem: the unit cube's form factors with coloured emission and
+// ρ = 0.7, and the rows `rows` of F as one process's block.
+struct BlockProblem {
+  FormFactorMatrix F;
+  Eigen::VectorXd E, rho, H;
+  RowBlock block(const std::vector<int>& rows) const {
+    RowBlock b;
+    b.rows = rows;
+    b.F.resize(Eigen::Index(rows.size()), F.cols());
+    for (size_t k = 0; k < rows.size(); ++k) b.F.row(Eigen::Index(k)) = F.row(rows[k]).cast<double>();
+    return b;
+  }
+};
+
+BlockProblem block_problem() {
+  const PatchMesh mesh = subdivide(builders::unit_cube(), {0.25, 0.0});
+  BlockProblem p{furnace_matrix(mesh), {}, {}, {}};
+  const int n = mesh.size();
+  p.E = Eigen::VectorXd::Zero(n);
+  for (int i = 0; i < n; i += 7) p.E[i] = 1.0 + 0.1 * i;
+  p.rho = Eigen::VectorXd::Constant(n, 0.7);
+  p.H = Eigen::VectorXd::LinSpaced(n, 0.0, 0.5);
+  return p;
+}
+
+}  // namespace
+
+// With every row in one block and no other process it is Gauss–Seidel: the same B.
+TEST(BlockGaussSeidel, OneProcessHoldingEveryRowIsGaussSeidel) {
+  const BlockProblem p = block_problem();
+  const int n = static_cast<int>(p.E.size());
+  std::vector<int> rows(static_cast<size_t>(n));
+  std::iota(rows.begin(), rows.end(), 0);
+  const SolverOptions opt{1e-13, 10000};
+  Eigen::VectorXd block_b, serial_b;
+  const ChannelResult r = block_gauss_seidel_channel(
+      p.block(rows), p.E, p.rho, p.H, opt, [](std::vector<double>&) {}, block_b);
+  const FormFactors F(p.F);
+  const ChannelResult s = gauss_seidel_channel(ChannelProblem{F, p.E, p.rho, p.H}, opt, serial_b);
+  ASSERT_TRUE(r.converged);
+  ASSERT_TRUE(s.converged);
+  EXPECT_LE(r.residual, 1e-13);
+  EXPECT_NEAR(r.iterations, s.iterations, 1);
+  EXPECT_LE((block_b - serial_b).norm() / serial_b.norm(), 1e-12);
+}
+
+// Two processes (threads here, summing through shared slots) holding the rows in two shuffled
+// halves: Jacobi between the blocks, Gauss–Seidel within them, the same B as one process.
+TEST(BlockGaussSeidel, TwoProcessesReachTheSameRadiosityAsOne) {
+  const BlockProblem p = block_problem();
+  const int n = static_cast<int>(p.E.size());
+  std::vector<int> rows(static_cast<size_t>(n));
+  std::iota(rows.begin(), rows.end(), 0);
+  std::shuffle(rows.begin(), rows.end(), std::mt19937(5));
+  const std::vector<int> first(rows.begin(), rows.begin() + n / 3), second(rows.begin() + n / 3, rows.end());
+  const SolverOptions opt{1e-13, 10000};
+  std::vector<double> slot[2];
+  std::barrier sync(2);
+  auto sum_of = [&](int me) {
+    return [&, me](std::vector<double>& v) {
+      slot[me] = v;
+      sync.arrive_and_wait();
+      for (size_t k = 0; k < v.size(); ++k) v[k] = slot[0][k] + slot[1][k];
+      sync.arrive_and_wait();  // both have read before either writes again
+    };
+  };
+  Eigen::VectorXd b[2];
+  ChannelResult r[2];
+  std::thread other([&] { r[1] = block_gauss_seidel_channel(p.block(second), p.E, p.rho, p.H, opt, sum_of(1), b[1]); });
+  r[0] = block_gauss_seidel_channel(p.block(first), p.E, p.rho, p.H, opt, sum_of(0), b[0]);
+  other.join();
+  Eigen::VectorXd serial_b;
+  const FormFactors F(p.F);
+  gauss_seidel_channel(ChannelProblem{F, p.E, p.rho, p.H}, opt, serial_b);
+  for (int me : {0, 1}) {
+    ASSERT_TRUE(r[me].converged);
+    EXPECT_EQ(r[me].iterations, r[0].iterations);
+    EXPECT_EQ(b[me], b[0]);  // every process ends with all of B
+  }
+  EXPECT_LE((b[0] - serial_b).norm() / serial_b.norm(), 1e-12);
 }

@@ -3,6 +3,8 @@
 #include <iomanip>
 #include <sstream>
 
+#include "distributed/fill_stats.h"
+
 namespace photometria {
 namespace {
 
@@ -120,6 +122,11 @@ nlohmann::json summary_json(const Scene& scene, const SolveSummary& s) {
                         {"pairs_culled", s.vertex_pairs_culled},
                         {"rays_cast", s.vertex_rays_cast}};
   j["threads"] = s.threads;
+  j["ranks"] = {{"count", s.ranks},
+                {"threads_per_rank", s.threads},
+                {"rows_per_rank", s.rows_per_rank},
+                {"fill_seconds_per_rank", s.fill_seconds_per_rank},
+                {"load_imbalance", load_imbalance(s.fill_seconds_per_rank)}};
   nlohmann::json t = nlohmann::json::object();
   double total = 0.0;
   for (const auto& [stage, sec] : s.stage_seconds) {
@@ -169,8 +176,10 @@ std::string summary_table(const Scene& scene, const SolveSummary& s) {
                          << std::setprecision(3) << 100.0 * s.fill.pairs_culled / s.fill.pairs_tested << "%)\n";
   row("form factors") << "F in [" << std::setprecision(3) << s.checks.min_entry << ", " << s.checks.max_entry
                       << "], row sums " << std::setprecision(10) << s.checks.min_row_sum << " .. "
-                      << s.checks.max_row_sum << ", reciprocity " << std::setprecision(3) << s.checks.reciprocity_error
-                      << "\n";
+                      << s.checks.max_row_sum;
+  if (s.checks.reciprocity_error >= 0.0) o << ", reciprocity " << std::setprecision(3) << s.checks.reciprocity_error;
+  else o << ", reciprocity not measured (no MPI rank holds both F_ij and F_ji)";
+  o << "\n";
   row("visibility") << s.visibility_mode << " — " << s.visibility_reason << "\n";
   if (!s.ray_sampling.empty())
     row("rays") << s.fill.rays_cast + s.vertex_rays_cast << " cast (" << s.ray_sampling
@@ -207,6 +216,13 @@ std::string summary_table(const Scene& scene, const SolveSummary& s) {
   }
   row("time s") << std::setprecision(3) << total << " (" << st.str().substr(1) << ")\n";
   row("threads") << s.threads << "\n";
+  if (s.ranks > 1) {
+    row("MPI") << s.ranks << " ranks x " << s.threads << " threads; rows per rank";
+    for (int n : s.rows_per_rank) o << " " << n;
+    o << "; fill seconds per rank";
+    for (double t : s.fill_seconds_per_rank) o << " " << std::setprecision(3) << t;
+    o << " (imbalance " << std::setprecision(3) << load_imbalance(s.fill_seconds_per_rank) << ")\n";
+  }
   row("peak memory") << std::setprecision(4) << peak_memory_bytes() / 1048576.0 << " MiB\n";
   return o.str();
 }

@@ -10,16 +10,21 @@
 #include <cmath>
 #include <iomanip>
 #include <memory>
+#include <numeric>
 #include <sstream>
 #include <stdexcept>
 #include <tuple>
 
+#include "distributed/fill_stats.h"
+#include "distributed/ranks.h"
+#include "distributed/row_partition.h"
 #include "formfactors/facing.h"
 #include "formfactors/point_factors.h"
 #include "formfactors/quadrature.h"
 #include "kernels/lambert.h"
 #include "kernels/lambert_batch.h"
 #include "pipeline/direct_light.h"
+#include "solver/block_gauss_seidel.h"
 #include "util/error.h"
 
 namespace photometria {
@@ -317,8 +322,12 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
   group_start.push_back(np);
   const int groups = static_cast<int>(group_start.size()) - 1;
   std::atomic<int> groups_done{0};
+  // On MPI ranks each rank gathers every R-th group (neighbouring points cost alike, so dealt in
+  // turn they balance), and the results are summed over the ranks below.
+  const int parts = ranks::size(), part = ranks::rank();
 #pragma omp parallel for schedule(dynamic, 16) reduction(+ : evaluated, rays, tested, culled)
   for (int g = 0; g < groups; ++g) {
+    if (g % parts != part) continue;
     PointFactors& factors = point_factors[size_t(omp_get_thread_num())];
     PointFactors::Counts counts;
     for (int k = group_start[size_t(g)]; k < group_start[size_t(g) + 1]; ++k) {
@@ -351,6 +360,16 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
     if (opt.progress && omp_get_thread_num() == 0) opt.progress("vertex gather", double(done) / groups);
   }
   if (opt.progress) opt.progress("vertex gather", 1.0);
+  if (parts > 1) {
+    for (ChannelMatrix* m : {&r.point_irradiance, &r.point_radiosity}) {
+      std::vector<double> v(m->data(), m->data() + m->size());
+      ranks::sum(v);
+      std::copy(v.begin(), v.end(), m->data());
+    }
+    std::vector<long long> counts = {evaluated, rays, tested, culled};
+    ranks::sum(counts);
+    evaluated = counts[0], rays = counts[1], tested = counts[2], culled = counts[3];
+  }
   r.summary.vertex_pairs_evaluated = evaluated;
   r.summary.vertex_rays_cast = rays;
   r.summary.vertex_pairs_tested = tested;
@@ -396,6 +415,8 @@ void gather_from_hierarchy(const Scene& scene, const HierarchicalRadiosity& hier
                            const SolveOptions& opt, SolveResult& r);
 void solve_dense(const Scene& scene, const Visibility* vis, const DirectLighting& lights, const SolveOptions& opt,
                  SolveResult& r, StageTimer& timer);
+void solve_dense_on_ranks(const Scene& scene, const Visibility* vis, const DirectLighting& lights,
+                          const SolveOptions& opt, SolveResult& r, StageTimer& timer);
 
 }  // namespace
 
@@ -433,7 +454,19 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
 
   bool hierarchical = opt.method == SolveMethod::Hierarchical;
   s.method_reason = "requested (--method " + solve_method_name(opt.method) + ")";
-  if (!hierarchical) {
+  // On several MPI ranks the rows of F are split over the ranks (solve_dense_on_ranks); the
+  // whole matrix is never held, so its memory is checked per rank there.
+  const bool on_ranks = ranks::distributed();
+  s.ranks = ranks::size();
+  if (on_ranks) {
+    if (hierarchical)
+      throw_bad_input(
+          "--method hierarchical runs as one process; on several MPI ranks the solve is dense, its "
+          "rows split over the ranks");
+    s.method_reason = opt.method == SolveMethod::Auto
+                          ? "auto: on " + std::to_string(s.ranks) + " MPI ranks, the dense method with its rows split"
+                          : s.method_reason;
+  } else if (!hierarchical) {
     const PatchGrid grid = count_patches(scene, opt.patching);
     const MemoryEstimate estimate = estimate_memory(scene, grid, opt.seed);
     if (opt.method == SolveMethod::Auto) {
@@ -468,6 +501,8 @@ SolveResult solve_scene(const Scene& scene, const SolveOptions& opt) {
   if (hierarchical) {
     hierarchy = solve_by_hierarchy(scene, roots, vis.get(), lights, opt, r);
     timer.lap("hierarchical_solve");
+  } else if (on_ranks) {
+    solve_dense_on_ranks(scene, vis.get(), lights, opt, r, timer);
   } else {
     solve_dense(scene, vis.get(), lights, opt, r, timer);
   }
@@ -560,21 +595,48 @@ void gather_from_hierarchy(const Scene& scene, const HierarchicalRadiosity& hier
   r.summary.vertex_rays_cast = rays;
 }
 
+[[noreturn]] void throw_not_converged(const Scene& scene, const SolverReport& report, double tolerance) {
+  std::ostringstream m;
+  m << scene.source << ": the solver did not converge in " << report.iterations << " sweeps (relative residual "
+    << report.residual << " > tolerance " << tolerance << "); raise --max-iterations";
+  throw Error(ErrorKind::NotConverged, m.str());
+}
+
+// The fill's options from the solve's, its progress reported as the "form factors" stage.
+FillOptions fill_options(const SolveOptions& opt, const Visibility* vis) {
+  FillOptions fill;
+  fill.quadrature = opt.quadrature;
+  fill.tolerance = opt.accuracy;
+  fill.visibility = vis;
+  fill.rays = opt.rays;
+  fill.seed = opt.seed;
+  if (opt.progress) fill.progress = [progress = opt.progress](double f) { progress("form factors", f); };
+  return fill;
+}
+
+// H_direct of the given patches (N × 3, zero elsewhere): the mean over the receiver rule's points
+// of the lights' irradiance (pipeline/direct_light.h); all zero without lights.
+ChannelMatrix direct_irradiance(const PatchMesh& mesh, const DirectLighting& lights, int quadrature,
+                                const std::vector<int>& patches) {
+  ChannelMatrix direct = ChannelMatrix::Zero(mesh.size(), 3);
+  if (lights.empty()) return direct;
+#pragma omp parallel for schedule(dynamic, 16)
+  for (size_t k = 0; k < patches.size(); ++k) {
+    const int i = patches[k];
+    Vec3 c[4];
+    mesh.polygon(i, c);
+    const Patch& p = mesh.patches[size_t(i)];
+    for (const QuadraturePoint& q : patch_quadrature(c, p.corner_count, quadrature))
+      direct.row(i) += q.weight * lights.at(q.point, p.normal).matrix().transpose();
+  }
+  return direct;
+}
+
 // The dense method: the N × N form factors, then the linear solve.
 void solve_dense(const Scene& scene, const Visibility* vis_ptr, const DirectLighting& lights, const SolveOptions& opt,
                  SolveResult& r, StageTimer& timer) {
   SolveSummary& s = r.summary;
-  auto progress = [&](const std::string& stage) {
-    return opt.progress ? std::function<void(double)>([&, stage](double f) { opt.progress(stage, f); })
-                        : std::function<void(double)>();
-  };
-  FillOptions fill;
-  fill.quadrature = opt.quadrature;
-  fill.tolerance = opt.accuracy;
-  fill.visibility = vis_ptr;
-  fill.rays = opt.rays;
-  fill.seed = opt.seed;
-  fill.progress = progress("form factors");
+  FillOptions fill = fill_options(opt, vis_ptr);
   s.quadrature = opt.quadrature;
   s.accuracy = opt.accuracy;
   const StorageChoice storage = check_memory(estimate_memory(r.mesh, opt.seed), r.mesh.size(), opt, s);
@@ -591,29 +653,16 @@ void solve_dense(const Scene& scene, const Visibility* vis_ptr, const DirectLigh
   bool grey = true;  // every material grey (solve_radiosity also checks the direct light)
   for (const Material& m : scene.materials) grey = grey && m.is_grey();
   // H_direct per patch: the mean over the receiver rule's points. Skipped without lights.
-  ChannelMatrix direct = ChannelMatrix::Zero(s.patches, 3);
   s.lights = lights.count();
-  if (!lights.empty()) {
-#pragma omp parallel for schedule(dynamic, 16)
-    for (int i = 0; i < s.patches; ++i) {
-      Vec3 c[4];
-      r.mesh.polygon(i, c);
-      const Patch& p = r.mesh.patches[i];
-      for (const QuadraturePoint& q : patch_quadrature(c, p.corner_count, opt.quadrature))
-        direct.row(i) += q.weight * lights.at(q.point, p.normal).matrix().transpose();
-    }
-  }
+  std::vector<int> every_patch(size_t(s.patches));
+  std::iota(every_patch.begin(), every_patch.end(), 0);
+  const ChannelMatrix direct = direct_irradiance(r.mesh, lights, opt.quadrature, every_patch);
   s.tolerance = opt.solver.tolerance;
   SolverOptions solver = opt.solver;  // + the patch areas, for the symmetric (cg) formulation
   solver.areas.resize(s.patches);
   for (int i = 0; i < s.patches; ++i) solver.areas[i] = r.mesh.patches[i].area;
   s.solver = solve_radiosity(F, r.emission, r.reflectance, direct, grey, solver, r.radiosity);
-  if (!s.solver.converged) {
-    std::ostringstream m;
-    m << scene.source << ": the solver did not converge in " << s.solver.iterations << " sweeps (relative residual "
-      << s.solver.residual << " > tolerance " << opt.solver.tolerance << "); raise --max-iterations";
-    throw Error(ErrorKind::NotConverged, m.str());
-  }
+  if (!s.solver.converged) throw_not_converged(scene, s.solver, opt.solver.tolerance);
   // H = H_direct + F B per channel (one when the solve was grey: the channels are equal) and F's
   // row sums, in one pass over F: a row read for the first product is still in the cache for the others.
   const bool grey_solve = s.solver.channels_solved == 1;
@@ -626,6 +675,144 @@ void solve_dense(const Scene& scene, const Visibility* vis_ptr, const DirectLigh
     if (grey_solve) r.irradiance(i, 1) = r.irradiance(i, 2) = r.irradiance(i, 0);
     row_sums[i] = F.row_sum(i);
   }
+  s.energy = energy_balance(row_sums, direct, r);
+  timer.lap("solve");
+}
+
+// The dense method on MPI ranks (distributed/ranks.h): each rank fills the rows of F a spatial
+// partition balanced by the rows' estimated costs gives it (distributed/row_partition.h) and
+// holds only those, the solve is block Jacobi–Gauss–Seidel over the ranks' rows
+// (solver/block_gauss_seidel.h), and every rank ends with all of B, H and the checks, summed
+// over the ranks, so that the vertex gather can be split by point (gather_at_points).
+void solve_dense_on_ranks(const Scene& scene, const Visibility* vis_ptr, const DirectLighting& lights,
+                          const SolveOptions& opt, SolveResult& r, StageTimer& timer) {
+  SolveSummary& s = r.summary;
+  const int n = s.patches, R = ranks::size();
+  // Only Gauss–Seidel splits over the ranks; auto must have picked it for one process too.
+  double max_rho = 0.0;
+  for (int i = 0; i < n; ++i) max_rho = std::max(max_rho, r.reflectance.row(i).maxCoeff());
+  const SolverMethod method =
+      opt.solver.method == SolverMethod::Auto ? choose_method(max_rho, n, true) : opt.solver.method;
+  if (method != SolverMethod::GaussSeidel)
+    throw_bad_input(std::string("--solver ") + method_name(method) +
+                    (opt.solver.method == SolverMethod::Auto ? " (what auto picks for this scene's reflectance)" : "") +
+                    " runs as one process; on several MPI ranks the solve is block Gauss–Seidel (--solver "
+                    "gauss-seidel)");
+  // The rows of this rank and their memory: rows × N doubles, plus the per-patch arrays.
+  std::vector<Vec3> centroids;
+  for (const Patch& p : r.mesh.patches) centroids.push_back(p.centroid);
+  const std::vector<std::vector<int>> parts = partition_rows(centroids, estimate_row_costs(r.mesh), R);
+  RowBlock block;
+  block.rows = parts[size_t(ranks::rank())];
+  for (const std::vector<int>& part : parts) s.rows_per_rank.push_back(static_cast<int>(part.size()));
+  const MemoryEstimate estimate = estimate_memory(r.mesh, opt.seed);
+  s.memory = estimate;
+  s.estimated_bytes = double(block.rows.size()) * n * sizeof(double) + estimate.per_patch_bytes * n;
+  s.memory_limit_bytes =
+      opt.max_memory_bytes > 0 ? opt.max_memory_bytes : available_memory_bytes() / std::max(1, ranks::local_size());
+  s.memory_limit_source = opt.max_memory_bytes > 0
+                              ? "--max-memory"
+                              : "MemAvailable shared by " + std::to_string(ranks::local_size()) + " ranks";
+  s.matrix_storage = "dense double, rows split over " + std::to_string(R) + " ranks";
+  s.matrix_storage_reason = "on MPI ranks each holds its rows";
+  std::exception_ptr failure;
+  if (s.memory_limit_bytes > 0 && s.estimated_bytes > s.memory_limit_bytes)
+    failure = std::make_exception_ptr(
+        Error(ErrorKind::BadInput, "this rank needs " + format_bytes(s.estimated_bytes) + " for its " +
+                                       format_count(static_cast<long long>(block.rows.size())) + " rows of " +
+                                       format_patch_count(n) + " patches (dense double) but " +
+                                       memory_limit_description(s.memory_limit_bytes, s.memory_limit_source) +
+                                       "; raise --max-edge, use more ranks or raise --max-memory"));
+  ranks::agree(failure);  // every rank past its memory check (MemAvailable differs between machines)
+
+  block.F.resize(Eigen::Index(block.rows.size()), n);
+  std::vector<int> place(size_t(n), -1);
+  for (size_t k = 0; k < block.rows.size(); ++k) place[size_t(block.rows[k])] = static_cast<int>(k);
+  FillOptions fill = fill_options(opt, vis_ptr);
+  fill.rows = &block.rows;
+  fill.row_sink = [&](int i, const double* row) {
+    std::copy(row, row + n, block.F.row(place[size_t(i)]).data());
+    return true;
+  };
+  s.quadrature = opt.quadrature;
+  s.accuracy = opt.accuracy;
+  const auto fill_start = std::chrono::steady_clock::now();
+  fill_form_factors(r.mesh, fill, s.fill);
+  s.fill_seconds_per_rank =
+      ranks::all_values(std::chrono::duration<double>(std::chrono::steady_clock::now() - fill_start).count());
+  s.matrix_bytes = double(block.F.size()) * sizeof(double);
+  if (!vis_ptr && opt.visibility == VisibilityMode::Auto) s.fill.pairs_culled = s.fill.pairs_evaluated;
+  sum_over_ranks(s.fill);
+  // The checks of the whole matrix from the ranks' rows; reciprocity would need F_ji beside F_ij,
+  // which no rank holds, so it is not measured (−1).
+  double min_entry = 1.0, max_entry = 0.0, min_sum = 1e300, max_sum = -1e300;
+  Eigen::VectorXd row_sums = Eigen::VectorXd::Zero(n);
+  for (size_t k = 0; k < block.rows.size(); ++k) {
+    const int i = block.rows[k];
+    for (int j = 0; j < n; ++j)
+      if (j != i)
+        min_entry = std::min(min_entry, block.F(Eigen::Index(k), j)),
+        max_entry = std::max(max_entry, block.F(Eigen::Index(k), j));
+    row_sums[i] = block.F.row(Eigen::Index(k)).sum();
+    min_sum = std::min(min_sum, row_sums[i]);
+    max_sum = std::max(max_sum, row_sums[i]);
+  }
+  s.checks.min_entry = ranks::min(min_entry);
+  s.checks.max_entry = ranks::max(max_entry);
+  s.checks.min_row_sum = ranks::min(min_sum);
+  s.checks.max_row_sum = ranks::max(max_sum);
+  s.checks.reciprocity_error = -1.0;
+  timer.lap("form_factors");
+
+  // H_direct per patch (the mean over the receiver rule's points), each rank its rows.
+  s.lights = lights.count();
+  ChannelMatrix direct = direct_irradiance(r.mesh, lights, opt.quadrature, block.rows);
+  const SumOverProcesses sum = [](std::vector<double>& v) { ranks::sum(v); };
+  auto sum_matrix = [&](ChannelMatrix& m) {
+    std::vector<double> v(m.data(), m.data() + m.size());
+    sum(v);
+    std::copy(v.begin(), v.end(), m.data());
+  };
+  sum_matrix(direct);
+  std::vector<double> sums(row_sums.data(), row_sums.data() + n);
+  sum(sums);
+  std::copy(sums.begin(), sums.end(), row_sums.data());
+
+  // The solve, one channel when every channel's E, ρ and H_direct agree (solver.h).
+  s.tolerance = opt.solver.tolerance;
+  const auto solve_start = std::chrono::steady_clock::now();
+  const bool grey = r.emission.col(0) == r.emission.col(1) && r.emission.col(0) == r.emission.col(2) &&
+                    r.reflectance.col(0) == r.reflectance.col(1) && r.reflectance.col(0) == r.reflectance.col(2) &&
+                    direct.col(0) == direct.col(1) && direct.col(0) == direct.col(2);
+  if (r.reflectance.minCoeff() < 0.0 || max_rho >= 1.0 || r.emission.minCoeff() < 0.0)
+    throw_bad_input(scene.source + ": reflectance must lie in [0, 1) and emission be >= 0 for the solve");
+  SolverReport& report = s.solver;
+  report.method = SolverMethod::GaussSeidel;
+  report.channels_solved = grey ? 1 : 3;
+  report.converged = true;
+  r.radiosity = ChannelMatrix::Zero(n, 3);
+  for (int c = 0; c < report.channels_solved; ++c) {
+    Eigen::VectorXd B;
+    const ChannelResult cr =
+        block_gauss_seidel_channel(block, r.emission.col(c), r.reflectance.col(c), direct.col(c), opt.solver, sum, B);
+    r.radiosity.col(c) = B;
+    report.iterations = std::max(report.iterations, cr.iterations);
+    report.residual = std::max(report.residual, cr.residual);
+    report.converged = report.converged && cr.converged;
+  }
+  if (grey) r.radiosity.col(1) = r.radiosity.col(2) = r.radiosity.col(0);
+  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - solve_start).count();
+  report.detail = "block Jacobi–Gauss–Seidel: each of " + std::to_string(R) +
+                  " ranks sweeps its rows, the ranks' values exchanged after every sweep";
+  if (!report.converged) throw_not_converged(scene, report, opt.solver.tolerance);
+  // H = H_direct + F B per channel, each rank its rows, summed.
+  r.irradiance = ChannelMatrix::Zero(n, 3);
+  for (size_t k = 0; k < block.rows.size(); ++k) {
+    const int i = block.rows[k];
+    for (int c = 0; c < 3; ++c)
+      r.irradiance(i, c) = direct(i, c) + block.F.row(Eigen::Index(k)).dot(r.radiosity.col(c));
+  }
+  sum_matrix(r.irradiance);
   s.energy = energy_balance(row_sums, direct, r);
   timer.lap("solve");
 }

@@ -115,7 +115,12 @@ struct SolveSummary {
   MemoryEstimate memory;                                       // estimated before the fill
   double memory_limit_bytes = 0.0;
   std::string memory_limit_source;  // "--max-memory" or "MemAvailable"
-  int threads = 1;
+  int threads = 1;                  // per process (per rank on MPI ranks)
+  // On MPI ranks (distributed/ranks.h): their count, the rows of F each held and filled, and the
+  // seconds each rank's fill took. One process: 1, empty, empty.
+  int ranks = 1;
+  std::vector<int> rows_per_rank;
+  std::vector<double> fill_seconds_per_rank;
   std::vector<std::pair<std::string, double>> stage_seconds;
   EnergyBalance energy;
 };

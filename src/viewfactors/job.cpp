@@ -14,6 +14,7 @@
 
 #include <omp.h>
 
+#include "distributed/fill_stats.h"
 #include "distributed/ranks.h"
 #include "distributed/row_partition.h"
 #include "distributed/shared_file.h"
@@ -182,34 +183,6 @@ double held_bytes_per_entry(ViewFactorFormat format) {
   return 24.0;
 }
 
-// The fill's counts summed over the ranks, its maxima the largest of any rank's.
-void sum_over_ranks(FillStats& f) {
-  long long* fields[] = {&f.pairs_evaluated,
-                         &f.pairs_backfacing,
-                         &f.pairs_tested,
-                         &f.pairs_culled,
-                         &f.pairs_occluded,
-                         &f.pairs_blocked_whole,
-                         &f.rays_cast,
-                         &f.above_unoccluded,
-                         &f.points_rescaled,
-                         &f.pairs_fixed_rule,
-                         &f.pairs_gauss,
-                         &f.pairs_adaptive,
-                         &f.pairs_exact_rectangles,
-                         &f.kernel_evaluations,
-                         &f.pairs_occluded_adaptive,
-                         &f.occluded_evaluations,
-                         &f.occluded_budget_exhausted};
-  std::vector<long long> counts;
-  for (long long* field : fields) counts.push_back(*field);
-  ranks::sum(counts);
-  for (size_t k = 0; k < counts.size(); ++k) *fields[k] = counts[k];
-  f.max_point_row_sum = ranks::max(f.max_point_row_sum);
-  f.max_row_error_estimate = ranks::max(f.max_row_error_estimate);
-  f.max_row_ray_error = ranks::max(f.max_row_ray_error);
-}
-
 // A number as the C line would give it ("1e-05", "2").
 std::string control_value(double v) {
   std::ostringstream o;
@@ -256,15 +229,7 @@ void fill_result(ViewFactorJobResult& res, const Scene& scene, const PatchViewFa
 
 }  // namespace
 
-double ViewFactorJobResult::load_imbalance() const {
-  if (fill_seconds_per_rank.empty()) return 1.0;
-  double sum = 0.0, most = 0.0;
-  for (double t : fill_seconds_per_rank) {
-    sum += t;
-    most = std::max(most, t);
-  }
-  return sum > 0.0 ? most * double(fill_seconds_per_rank.size()) / sum : 1.0;
-}
+double ViewFactorJobResult::load_imbalance() const { return photometria::load_imbalance(fill_seconds_per_rank); }
 
 std::vector<std::string> view3d_control_notes(const nlohmann::json& control, const ViewFactorJob& job) {
   std::vector<std::string> notes;
