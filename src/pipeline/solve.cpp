@@ -26,6 +26,7 @@
 #include "pipeline/direct_light.h"
 #include "solver/block_gauss_seidel.h"
 #include "util/error.h"
+#include "util/huge_pages.h"
 
 namespace photometria {
 
@@ -726,6 +727,7 @@ void solve_dense_on_ranks(const Scene& scene, const Visibility* vis_ptr, const D
   ranks::agree(failure);  // every rank past its memory check (MemAvailable differs between machines)
 
   block.F.resize(Eigen::Index(block.rows.size()), n);
+  advise_huge_pages(block.F.data(), size_t(block.F.size()) * sizeof(double));  // before the fill touches it
   std::vector<int> place(size_t(n), -1);
   for (size_t k = 0; k < block.rows.size(); ++k) place[size_t(block.rows[k])] = static_cast<int>(k);
   FillOptions fill = fill_options(opt, vis_ptr);
