@@ -358,7 +358,8 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
     culled += counts.culled;
     rays += counts.rays.cast;
     const int done = ++groups_done;
-    if (opt.progress && omp_get_thread_num() == 0) opt.progress("vertex gather", double(done) / groups);
+    if (opt.progress && omp_get_thread_num() == 0)
+      opt.progress("vertex gather", std::min(1.0, double(done) * parts / groups));
   }
   if (opt.progress) opt.progress("vertex gather", 1.0);
   if (parts > 1) {
