@@ -5,11 +5,13 @@
 //
 // Each process sweeps its own rows in place, in its order, as Gauss–Seidel does (Cohen &
 // Greenberg 1985; Cohen & Wallace 1993, §5.3), reading the other processes' B_j as they were
-// after the previous sweep: Gauss–Seidel within a block, Jacobi between blocks (Saad, Iterative
-// Methods for Sparse Linear Systems, 2nd ed., SIAM 2003, §12.4 "block relaxation"). After each
+// after the previous sweep: Gauss–Seidel within a block, Jacobi between blocks (block relaxation:
+// Saad, Iterative Methods for Sparse Linear Systems, 2nd ed., SIAM 2003, §4.1.1). After each
 // sweep the new values are exchanged, so every process holds all of B. It converges under the
 // same conditions as Gauss–Seidel (0 <= ρ < 1 and row sums <= 1: K = I − diag(ρ)F is strictly
-// diagonally dominant, and block Jacobi converges for such matrices, Saad Thm. 4.9) and stops
+// diagonally dominant; the splitting K = M − N, M the diagonal and the entries of each row that
+// its process updated before it, has ‖M⁻¹N‖∞ < 1 by the argument of Saad's Thm. 4.9 for
+// Gauss–Seidel) and stops
 // on the same relative residual ‖E + ρ∘(F·B + H_direct) − B‖₂ / ‖B‖₂ <= tolerance, computed
 // with all rows. With one process (all rows) it is gauss_seidel_channel's iteration.
 #pragma once

@@ -44,8 +44,8 @@ bool convex_corner(const std::vector<Vec3>& points, const Vec3& n, int a, int b,
 // cancel against their reverse, what is left must be one loop through distinct corners, within
 // tol of the plane, convex once collinear corners are removed (turning once around), of area
 // `area` (the polygons' sum: they do not overlap) within 1e-9 relative. Gives the remaining
-// edges in the loop's order (`boundary`, collinear corners kept: a neighbour's edges may end
-// there) and the convex polygon's corners (`loop`, from its smallest id).
+// edges (`boundary`, collinear corners kept: a neighbour's edges may end there) and the convex
+// polygon's corners (`loop`, from its smallest id).
 bool convex_union(const std::vector<Edge>& edges, double area, const Vec3& n, double d, const std::vector<Vec3>& points,
                   double tol, std::vector<Edge>& boundary, std::vector<int>& loop) {
   std::unordered_map<uint64_t, int> count;
@@ -70,7 +70,6 @@ bool convex_union(const std::vector<Edge>& edges, double area, const Vec3& n, do
     v = it->second;
   } while (v != start);
   if (all.size() != boundary.size()) return false;  // more than one loop (a hole, or apart)
-  for (size_t i = 0; i < all.size(); ++i) boundary[i] = {all[i], all[(i + 1) % all.size()]};
   for (int c : all)
     if (std::abs(n.dot(points[size_t(c)]) - d) > tol) return false;
   const size_t m = all.size();
