@@ -255,6 +255,47 @@ TEST(VisibilityScenes, CoplanarNeighboursAndSeamsDoNotLeak) {
   }
 }
 
+// Compares GroupedShaftCuller with each pair's own shaft (ShaftCuller::occluders) for receivers
+// i = 0, i_step, ... (as patch and as centroid point) and sources j = j_first + k·j_step facing
+// them: the grouped list must be a subset that gives the same exact visible factor.
+struct GroupedCheck {
+  int checked = 0, culled_pair = 0, culled_grouped = 0, occluded = 0;
+};
+static GroupedCheck check_grouped_culler(const ShaftCuller& culler, const PatchMesh& mesh, GroupedShaftCuller& grouped,
+                                         int i_step, int j_step, bool j_first_by_row) {
+  GroupedCheck c;
+  std::vector<int> everything(culler.occluder_count()), occ, occ_grouped;
+  std::iota(everything.begin(), everything.end(), 0);
+  const double tol = plane_tolerance(mesh);
+  Vec3 a[4], b[4];
+  for (int i = 0; i < mesh.size(); i += i_step) {
+    mesh.polygon(i, a);
+    const Patch& pi = mesh.patches[i];
+    for (bool point : {false, true}) {
+      const Vec3* receiver = point ? &pi.centroid : a;
+      const int nr = point ? 1 : pi.corner_count;
+      grouped.set_receiver(receiver, nr);
+      for (int j = j_first_by_row ? i % j_step : 0; j < mesh.size(); j += j_step) {
+        if (i == j || facing_away(mesh, i, j, tol)) continue;
+        mesh.polygon(j, b);
+        const int nb = mesh.patches[j].corner_count;
+        culler.occluders(receiver, nr, b, nb, occ);
+        grouped.occluders(j, b, nb, occ_grouped);
+        EXPECT_TRUE(std::includes(occ.begin(), occ.end(), occ_grouped.begin(), occ_grouped.end())) << i << " " << j;
+        const Receiver x{pi.centroid, pi.normal};
+        const double fv = exact_visible_form_factor(x, b, nb, culler.occluder_polygons(), everything);
+        EXPECT_NEAR(exact_visible_form_factor(x, b, nb, culler.occluder_polygons(), occ_grouped), fv, 1e-13)
+            << i << " " << j;
+        c.occluded += fv < lambert_form_factor(x, b, nb) - 1e-12;
+        c.culled_pair += occ.empty();
+        c.culled_grouped += occ_grouped.empty();
+        ++c.checked;
+      }
+    }
+  }
+  return c;
+}
+
 // The hierarchical culler (face, tile of patches, patch) gives a subset of the pair's own
 // occluders that is still enough for exact clipping, for patch receivers and for point
 // receivers, on a busy room whose floor has many tiles. It culls at least as much as the pair test.
@@ -283,39 +324,10 @@ TEST(VisibilityScenes, GroupedCullerKeepsEveryOccluderItNeeds) {
     EXPECT_LE(*std::max_element(per_tile.begin(), per_tile.end()), tile_patches);
     EXPECT_LT(grouped.tile_count(), previous_tiles);
     previous_tiles = grouped.tile_count();
-    std::vector<int> everything(culler.occluder_count()), occ, occ_grouped;
-    std::iota(everything.begin(), everything.end(), 0);
-    const double tol = plane_tolerance(mesh);
-    int checked = 0, culled_pair = 0, culled_grouped = 0, occluded = 0;
-    Vec3 a[4], b[4];
-    for (int i = 0; i < mesh.size(); i += 37) {
-      mesh.polygon(i, a);
-      const Patch& pi = mesh.patches[i];
-      for (bool point : {false, true}) {
-        const Vec3* receiver = point ? &pi.centroid : a;
-        const int nr = point ? 1 : pi.corner_count;
-        grouped.set_receiver(receiver, nr);
-        for (int j = i % 5; j < mesh.size(); j += 5) {
-          if (i == j || facing_away(mesh, i, j, tol)) continue;
-          mesh.polygon(j, b);
-          const int nb = mesh.patches[j].corner_count;
-          culler.occluders(receiver, nr, b, nb, occ);
-          grouped.occluders(j, b, nb, occ_grouped);
-          EXPECT_TRUE(std::includes(occ.begin(), occ.end(), occ_grouped.begin(), occ_grouped.end())) << i << " " << j;
-          const Receiver x{pi.centroid, pi.normal};
-          const double fv = exact_visible_form_factor(x, b, nb, culler.occluder_polygons(), everything);
-          EXPECT_NEAR(exact_visible_form_factor(x, b, nb, culler.occluder_polygons(), occ_grouped), fv, 1e-13)
-              << i << " " << j;
-          occluded += fv < lambert_form_factor(x, b, nb) - 1e-12;
-          culled_pair += occ.empty();
-          culled_grouped += occ_grouped.empty();
-          ++checked;
-        }
-      }
-    }
-    EXPECT_GT(checked, 5000);
-    EXPECT_GT(occluded, 100);
-    EXPECT_GE(culled_grouped, culled_pair);
+    const GroupedCheck c = check_grouped_culler(culler, mesh, grouped, 37, 5, true);
+    EXPECT_GT(c.checked, 5000);
+    EXPECT_GT(c.occluded, 100);
+    EXPECT_GE(c.culled_grouped, c.culled_pair);
   }
 }
 
@@ -544,4 +556,37 @@ TEST(VisibilityScenes, PointVisibilityAtTheSamePointWithAnotherNormal) {
   }
   EXPECT_GT(compared, 5000);
   EXPECT_GT(shadowed, 100);
+}
+
+// A room that arrives as many faces (every wall quad its own face): the face groups (up to
+// kFaceGroupFaces faces of one occluder) cull for their faces, and what each face keeps is still a
+// subset of its own shaft's occluders that gives the exact visible factor, for patch and point
+// receivers. The groups must exist here (the walls are occluders of many faces) and hold faces of
+// one occluder each.
+TEST(VisibilityScenes, FaceGroupsKeepEveryOccluderTheirFacesNeed) {
+  const Scene room = validation::bench_room_many_faces_scene(0.5);
+  const PatchMesh mesh = subdivide(room, {100.0, 0.0});  // one patch per face
+  ASSERT_EQ(mesh.size(), static_cast<int>(room.faces.size()));
+  const ShaftCuller culler(room);
+  GroupedShaftCuller grouped(culler, mesh);
+  ASSERT_GT(grouped.face_group_count(), 10);
+  std::vector<int> members(size_t(grouped.face_group_count()), 0), occluder(size_t(grouped.face_group_count()), -1);
+  int grouped_faces = 0;
+  for (int f = 0; f < culler.scene_face_count(); ++f) {
+    const int g = grouped.face_group_of(f);
+    if (g < 0) continue;
+    ++grouped_faces;
+    ++members[size_t(g)];
+    if (occluder[size_t(g)] < 0) occluder[size_t(g)] = culler.occluder_of_face(f);
+    EXPECT_EQ(culler.occluder_of_face(f), occluder[size_t(g)]) << "face " << f;
+  }
+  EXPECT_GT(grouped_faces, culler.scene_face_count() / 2);
+  for (int m : members) {
+    EXPECT_GE(m, 2);
+    EXPECT_LE(m, kFaceGroupFaces);
+  }
+  const GroupedCheck c = check_grouped_culler(culler, mesh, grouped, 7, 1, false);
+  EXPECT_GT(c.checked, 10000);
+  EXPECT_GT(c.occluded, 100);
+  EXPECT_GE(c.culled_grouped, c.culled_pair);
 }

@@ -13,6 +13,7 @@
 #include "formfactors/quadrature.h"
 #include "kernels/lambert.h"
 #include "kernels/lambert_batch.h"
+#include "util/per_thread.h"
 
 namespace photometria {
 
@@ -460,15 +461,14 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
   const FillSetup setup{mesh,     options,     n,      tol,      vis,     rays_mode,
                         per_pair, rects.get(), mirror, prefetch, sources, facing_runs};
 
-  std::vector<GroupedShaftCuller> grouped_cullers;
-  std::vector<PointVisibility> point_visibility;  // one-point rules: visibility from the point (see RowFill)
-  std::vector<OccludedRowIntegrator> occluded;    // per-pair mode, exact visibility: occluded pairs
-  if (vis) {
-    grouped_cullers.assign(size_t(omp_get_max_threads()), GroupedShaftCuller(vis->culler(), mesh));
-    for (int t = 0; t < omp_get_max_threads(); ++t) point_visibility.emplace_back(*vis, mesh);
-    if (per_pair && !rays_mode && options.occluded_tolerance > 0.0)
-      for (int t = 0; t < omp_get_max_threads(); ++t) occluded.emplace_back(*vis, mesh);
-  }
+  // Per thread, with visibility: the hierarchical shaft culler, visibility from one point (the
+  // one-point rules, see RowFill) and, in per-pair mode with exact visibility, the occluded pairs'
+  // integrator.
+  PerThread<GroupedShaftCuller> grouped_cullers(
+      [&] { return std::make_unique<GroupedShaftCuller>(vis->culler(), mesh); });
+  PerThread<PointVisibility> point_visibility([&] { return std::make_unique<PointVisibility>(*vis, mesh); });
+  PerThread<OccludedRowIntegrator> occluded([&] { return std::make_unique<OccludedRowIntegrator>(*vis, mesh); });
+  const bool integrate_occluded = vis && per_pair && !rays_mode && options.occluded_tolerance > 0.0;
   double max_row_error = 0.0, max_ray_error = 0.0;
   std::atomic<bool> stopped{false};
   const int row_count = options.rows ? static_cast<int>(options.rows->size()) : n;
@@ -487,10 +487,8 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
       row_buffer.assign(size_t(n), 0.0);
       row = row_buffer.data();
     }
-    const int thread = omp_get_thread_num();
-    RowFill fill(setup, i, vis ? &grouped_cullers[size_t(thread)] : nullptr,
-                 vis ? &point_visibility[size_t(thread)] : nullptr,
-                 occluded.empty() ? nullptr : &occluded[size_t(thread)], row, counts);
+    RowFill fill(setup, i, vis ? &grouped_cullers.local() : nullptr, vis ? &point_visibility.local() : nullptr,
+                 integrate_occluded ? &occluded.local() : nullptr, row, counts);
     fill.fill_pairs();
     fill.rescale_rays(max_point_sum);
     max_row_error = std::max(max_row_error, fill.row_error());

@@ -98,8 +98,49 @@ GroupedShaftCuller::GroupedShaftCuller(const ShaftCuller& culler, const PatchMes
       for (int k = first; k < first + count; ++k) tile_of_patch_[size_t(patches[size_t(k)])] = t;
     }
   }
-  stamp_.assign(size_t(faces) + tiles_.size(), -1);
-  groups_.resize(size_t(faces) + tiles_.size());
+  build_face_groups();
+  stamp_.assign(size_t(faces) + tiles_.size() + face_groups_.size(), -1);
+  groups_.resize(size_t(faces) + tiles_.size() + face_groups_.size());
+}
+
+void GroupedShaftCuller::build_face_groups() {
+  const ShaftCuller& culler = *culler_;
+  face_group_of_face_.assign(size_t(culler.scene_face_count()), -1);
+  std::vector<Eigen::Vector2d> uv(size_t(culler.scene_face_count()), Eigen::Vector2d::Zero());
+  for (int o = 0; o < culler.occluder_count(); ++o) {
+    std::vector<int> faces = culler.occluder_faces(o);
+    if (faces.size() < 2) continue;
+    const Vec3 w = culler.occluder_normals()[size_t(o)];
+    if (w.isZero()) continue;
+    const Vec3 u = w.unitOrthogonal(), v = w.cross(u);
+    for (int f : faces) {
+      const Polygon& p = culler.scene_faces()[size_t(f)];
+      Vec3 centroid = Vec3::Zero();
+      for (const Vec3& x : p) centroid += x / double(p.size());
+      uv[size_t(f)] = Eigen::Vector2d(u.dot(centroid), v.dot(centroid));
+    }
+    std::vector<std::pair<int, int>> ranges;
+    split_tiles(faces, uv, 0, static_cast<int>(faces.size()), kFaceGroupFaces, ranges);
+    for (const auto& [first, count] : ranges) {
+      if (count < 2) continue;  // one face: its own shaft is as wide
+      Eigen::AlignedBox3d box;  // in (u, v, w) coordinates
+      for (int k = first; k < first + count; ++k)
+        for (const Vec3& x : culler.scene_faces()[size_t(faces[size_t(k)])])
+          box.extend(Vec3(u.dot(x), v.dot(x), w.dot(x)));
+      // Grown by the culler's tolerance, so the rectangle contains its faces (as tiles do).
+      box.min().array() -= culler.tolerance();
+      box.max().array() += culler.tolerance();
+      if (box.sizes().z() > 4.0 * culler.tolerance()) continue;  // not flat after all: no group
+      const double wc = 0.5 * (box.min().z() + box.max().z());
+      const double cu[4] = {box.min().x(), box.max().x(), box.max().x(), box.min().x()};
+      const double cv[4] = {box.min().y(), box.min().y(), box.max().y(), box.max().y()};
+      FaceGroup group;
+      for (int c = 0; c < 4; ++c) group.corners[c] = cu[c] * u + cv[c] * v + wc * w;
+      for (int k = first; k < first + count; ++k)
+        face_group_of_face_[size_t(faces[size_t(k)])] = static_cast<int>(face_groups_.size());
+      face_groups_.push_back(group);
+    }
+  }
 }
 
 void GroupedShaftCuller::set_receiver(const Vec3* a, int na) {
@@ -114,12 +155,22 @@ const std::vector<int>& GroupedShaftCuller::group(int g) {
   if (stamp_[size_t(g)] == generation_) return list;
   stamp_[size_t(g)] = generation_;
   const int faces = culler_->scene_face_count();
+  const int first_face_group = faces + static_cast<int>(tiles_.size());
+  // From a point, a convex solid's back occluders cast no shadow of their own
+  // (drop_hidden_occluders): leaving them out at the widest level shortens every list below.
+  const bool drop_hidden = receiver_count_ == 1;
+  if (g >= first_face_group) {
+    culler_->occluders(receiver_, receiver_count_, face_groups_[size_t(g - first_face_group)].corners, 4, list,
+                       drop_hidden);
+    return list;
+  }
   if (g < faces) {
     const Polygon& face = culler_->scene_faces()[size_t(g)];
-    // From a point, a convex solid's back occluders cast no shadow of their own
-    // (drop_hidden_occluders): leaving them out here shortens every list below.
-    culler_->occluders(receiver_, receiver_count_, face.data(), static_cast<int>(face.size()), list,
-                       /*drop_hidden=*/receiver_count_ == 1);
+    const int face_group = face_group_of_face_[size_t(g)];
+    if (face_group >= 0 && static_cast<int>(face.size()) + receiver_count_ <= kMaxShaftPoints)
+      culler_->occluders_among(receiver_, receiver_count_, face.data(), static_cast<int>(face.size()),
+                               group(first_face_group + face_group), list);
+    else culler_->occluders(receiver_, receiver_count_, face.data(), static_cast<int>(face.size()), list, drop_hidden);
     return list;
   }
   const Tile& tile = tiles_[size_t(g - faces)];

@@ -177,15 +177,17 @@ class ShaftCuller {
 };
 
 // Shaft culling of one receiver (a patch or a point) against every patch of a mesh, in a
-// hierarchy (Haines & Wallace 1994 cull hierarchically the same way): scene face (the patches'
+// hierarchy (Haines & Wallace 1994 cull hierarchically the same way): face group (up to
+// kFaceGroupFaces neighbouring scene faces of one occluder, bounded by a rectangle in its plane:
+// a wall that arrives as 1,000 quads is culled 16 quads at a time), scene face (the patches'
 // Patch::face; ShaftCuller::scene_faces), then tiles of at most tile_patches of the face's
 // patches (each bounded by a rectangle in the face's plane, or a box if the face is not flat),
 // then the patch. A wider shaft contains the narrower ones below it, so a level's candidate
-// occluders are found among its parent's only: the face's by the BVH once per receiver and face,
-// a tile's once per receiver and tile, and each patch is tested against its tile's list —
-// usually empty. Lists hold occluder indices. The result is ShaftCuller::occluders() of the pair
-// or a subset of it (an occluder outside one plane of a wider hull is left out even where no
-// single plane of the pair's hull separates it; for a point receiver, the back occluders of
+// occluders are found among its parent's only: the face group's by the BVH once per receiver and
+// group, a face's among its group's (by the BVH for a face in no group), a tile's once per
+// receiver and tile, and each patch is tested against its tile's list — usually empty. Lists hold occluder indices. The
+// result is ShaftCuller::occluders() of the pair or a subset of it (an occluder outside one plane of a wider hull is
+// left out even where no single plane of the pair's hull separates it; for a point receiver, the back occluders of
 // convex solids it is outside of, see ShaftCuller::drop_hidden_occluders), never leaving out an
 // occluder that can add to the shadow.
 // One per thread; not thread-safe.
@@ -196,6 +198,11 @@ class ShaftCuller {
 // rooms (docs/performance.md "What did not work").
 constexpr int kTilePatches = 16;
 constexpr int kPointTilePatches = 64;
+// Scene faces per face group: an occluder's faces (coplanar, joined by edges) split at the median
+// of their centroids until each part has at most this many. A group's shaft replaces as many BVH
+// searches by one, and where it meets no occluder (most pairs of a room) its faces need no shaft
+// of their own.
+constexpr int kFaceGroupFaces = 32;
 
 class GroupedShaftCuller {
  public:
@@ -217,6 +224,9 @@ class GroupedShaftCuller {
   const Vec3* tile_corners(int tile) const { return tiles_[size_t(tile)].corners; }
   const std::vector<int>& tile_occluders(int tile) { return group(culler_->scene_face_count() + tile); }
   int tile_count() const { return static_cast<int>(tiles_.size()); }
+  // The face group of scene face f (-1: culled on its own), and how many groups there are.
+  int face_group_of(int f) const { return face_group_of_face_[size_t(f)]; }
+  int face_group_count() const { return static_cast<int>(face_groups_.size()); }
 
  private:
   struct Tile {
@@ -225,15 +235,21 @@ class GroupedShaftCuller {
     bool whole_face = false;  // its one patch is its whole face: the patch's occluders are the face's
     Vec3 corners[8];
   };
-  // The candidate occluders of group g (scene faces first, then tiles), computed on first need
-  // per receiver.
+  struct FaceGroup {
+    Vec3 corners[4];  // a rectangle in the faces' plane containing them, counter-clockwise about its normal
+  };
+  // The candidate occluders of group g (scene faces first, then tiles, then face groups),
+  // computed on first need per receiver.
   const std::vector<int>& group(int g);
+  void build_face_groups();
   const ShaftCuller* culler_;
   std::vector<Tile> tiles_;
   // Each tile's corner_count again, compact: read for every (point, patch) pair, where a Tile
   // (200 bytes) would be a cache miss on large meshes.
   std::vector<unsigned char> tile_corner_counts_;
   std::vector<int> tile_of_patch_;
+  std::vector<FaceGroup> face_groups_;
+  std::vector<int> face_group_of_face_;  // per scene face, -1 for none
   Vec3 receiver_[4];
   int receiver_count_ = 0;
   long long generation_ = 0;              // one per receiver
