@@ -27,6 +27,7 @@
 #include "solver/block_gauss_seidel.h"
 #include "util/error.h"
 #include "util/huge_pages.h"
+#include "util/per_thread.h"
 
 namespace photometria {
 
@@ -294,9 +295,8 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
   // The facing test per group of coplanar sources (formfactors/facing.h).
   const FacingGroups facing_runs(mesh, tol);
   // The factors from each point (formfactors/point_factors.h): one per thread.
-  std::vector<PointFactors> point_factors;
-  for (int t = 0; t < omp_get_max_threads(); ++t)
-    point_factors.emplace_back(mesh, sources, facing_runs, vis, tol, opt.rays);
+  PerThread<PointFactors> point_factors(
+      [&] { return std::make_unique<PointFactors>(mesh, sources, facing_runs, vis, tol, opt.rays); });
   // Points at one position (split at a crease or a material change) in a row, handled by one
   // thread: the visibility from a position is computed once (PointVisibility::set_receiver).
   std::vector<int> order(size_t(np), 0), group_start;
@@ -329,7 +329,7 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
 #pragma omp parallel for schedule(dynamic, 16) reduction(+ : evaluated, rays, tested, culled)
   for (int g = 0; g < groups; ++g) {
     if (g % parts != part) continue;
-    PointFactors& factors = point_factors[size_t(omp_get_thread_num())];
+    PointFactors& factors = point_factors.local();
     PointFactors::Counts counts;
     for (int k = group_start[size_t(g)]; k < group_start[size_t(g) + 1]; ++k) {
       const int o = order[size_t(k)];

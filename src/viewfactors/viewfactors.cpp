@@ -19,6 +19,7 @@
 #include "pipeline/memory.h"
 #include "util/error.h"
 #include "util/huge_pages.h"
+#include "util/per_thread.h"
 #include "visibility/visibility.h"
 
 namespace photometria {
@@ -657,18 +658,17 @@ ViewFactorMatrix point_view_factors(const std::vector<SurfacePoint>& points, con
   // one per thread.
   const PolygonBatch sources = patch_batch(mesh);
   const FacingGroups facing(mesh, tol);
-  std::vector<PointFactors> point_factors;
-  for (int t = 0; t < omp_get_max_threads(); ++t) point_factors.emplace_back(mesh, sources, facing, vis, tol, opt.rays);
+  PerThread<PointFactors> point_factors(
+      [&] { return std::make_unique<PointFactors>(mesh, sources, facing, vis, tol, opt.rays); });
 #pragma omp parallel for schedule(dynamic, 4)
   for (int o = 0; o < np; ++o) {
     const SurfacePoint& x = points[static_cast<size_t>(o)];
     PointFactors::Counts counts;
     auto stream_of = [&](int j) { return pair_stream(opt.seed ^ 0x9017ULL, uint64_t(o), uint64_t(j)); };
-    point_factors[size_t(omp_get_thread_num())].for_each_visible(
-        Receiver{x.position, x.normal}, stream_of, counts, [&](int j, double f) {
-          if (agg.of_patch[j] >= 0) out(o, agg.of_patch[j]) += f;
-          if (!agg.minus_of_patch.empty() && agg.minus_of_patch[j] >= 0) out(o, agg.minus_of_patch[j]) -= f;
-        });
+    point_factors.local().for_each_visible(Receiver{x.position, x.normal}, stream_of, counts, [&](int j, double f) {
+      if (agg.of_patch[j] >= 0) out(o, agg.of_patch[j]) += f;
+      if (!agg.minus_of_patch.empty() && agg.minus_of_patch[j] >= 0) out(o, agg.minus_of_patch[j]) -= f;
+    });
   }
   return out;
 }
