@@ -8,7 +8,7 @@ packages=(
   libcli11-dev nlohmann-json3-dev libtinyobjloader-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libxsimd-dev
-  libopenmpi-dev openmpi-bin
+  libopenmpi-dev openmpi-bin petsc-dev
   gnuplot-nox
   clang libclang-rt-14-dev libomp-14-dev clang-format
 )

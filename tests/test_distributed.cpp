@@ -280,14 +280,17 @@ double relative_difference(const std::vector<double>& a, const std::vector<doubl
 
 }  // namespace
 
-// The solve on 1, 2 and 4 ranks: the rows split over the ranks, block Gauss–Seidel between them,
-// the vertex gather split by point; converged tightly, every array agrees with one process's to
-// 1e-12 relative (the figure), and one summary reports the ranks.
-TEST(MpiSolve, TheSameRadiosityOnAnyNumberOfRanks) {
-  const fs::path dir = test_scratch::fresh_dir("distributed_mpi_solve");
+namespace {
+
+// `solve` of the Cornell box with `solver_args` on 1, 2 and 4 ranks against one process: every
+// array agrees to 1e-12 relative (the figure), converged tightly, and one summary
+// reports the ranks and the method that ran.
+void expect_the_same_solve_on_ranks(const std::string& scratch, const std::string& solver_args,
+                                    const std::string& method) {
+  const fs::path dir = test_scratch::fresh_dir(scratch);
   const auto file = [&](const std::string& name) { return (dir / name).string(); };
   const std::string cornell = std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/cornell_box.obj";
-  const std::string args = " --max-edge 0.2 --tolerance 1e-14 --quiet --json";
+  const std::string args = " --max-edge 0.2 --tolerance 1e-14 --quiet --json " + solver_args;
   const cli_test::CliRun single = cli_test::run_cli("solve " + cornell + args + " -o " + file("one.vtu"), file("err"));
   ASSERT_EQ(single.exit_code, 0) << single.err;
   const pm::VtuGrid expected = pm::read_vtu(file("one.vtu"));
@@ -310,6 +313,9 @@ TEST(MpiSolve, TheSameRadiosityOnAnyNumberOfRanks) {
     }
     const nlohmann::json j = nlohmann::json::parse(r.out);
     EXPECT_EQ(j["ranks"]["count"], ranks);
+    EXPECT_EQ(j["solver"]["method"], method) << ranks << " ranks";
+    EXPECT_TRUE(j["solver"]["converged"].get<bool>());
+    EXPECT_LE(j["solver"]["residual"].get<double>(), 1e-14);
     EXPECT_EQ(j["pairs"], s["pairs"]);
     EXPECT_NEAR(j["form_factor_checks"]["max_row_sum"].get<double>(),
                 s["form_factor_checks"]["max_row_sum"].get<double>(), 1e-15);
@@ -324,15 +330,30 @@ TEST(MpiSolve, TheSameRadiosityOnAnyNumberOfRanks) {
   fs::remove_all(dir);
 }
 
+}  // namespace
+
+// The rows split over the ranks, block Gauss–Seidel between them, the vertex gather split by point.
+TEST(MpiSolve, TheSameRadiosityOnAnyNumberOfRanks) {
+  expect_the_same_solve_on_ranks("distributed_mpi_solve", "", "gauss-seidel");
+}
+
+#if PHOTOMETRIA_HAVE_PETSC
+// GMRES through PETSc on the ranks' rows (distributed/distributed_gmres.h) against this program's
+// own GMRES in one process.
+TEST(MpiSolve, GmresThroughPetscGivesTheSameRadiosityOnAnyNumberOfRanks) {
+  expect_the_same_solve_on_ranks("distributed_mpi_gmres", "--solver gmres", "gmres");
+}
+#endif
+
 TEST(MpiSolve, WhatRunsAsOneProcessIsRefusedOnRanksInOneLine) {
   const fs::path dir = test_scratch::fresh_dir("distributed_mpi_solve_refused");
   const auto file = [&](const std::string& name) { return (dir / name).string(); };
   const std::string cornell = std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/cornell_box.obj";
-  const cli_test::CliRun gmres =
-      run_ranks(2, "solve " + cornell + " --quiet" + " --solver gmres -o " + file("x.vtu"), file("err"));
-  EXPECT_EQ(gmres.exit_code, 1) << gmres.err;
-  EXPECT_NE(gmres.err.find("--solver gmres runs as one process"), std::string::npos) << gmres.err;
-  EXPECT_EQ(lines(gmres.err), 1) << gmres.err;
+  const cli_test::CliRun sor =
+      run_ranks(2, "solve " + cornell + " --quiet" + " --solver sor -o " + file("x.vtu"), file("err"));
+  EXPECT_EQ(sor.exit_code, 1) << sor.err;
+  EXPECT_NE(sor.err.find("--solver sor runs as one process"), std::string::npos) << sor.err;
+  EXPECT_EQ(lines(sor.err), 1) << sor.err;
   const cli_test::CliRun hierarchy =
       run_ranks(2, "solve " + cornell + " --quiet" + " --method hierarchical -o " + file("x.vtu"), file("err"));
   EXPECT_EQ(hierarchy.exit_code, 1) << hierarchy.err;

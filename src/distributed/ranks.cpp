@@ -32,6 +32,11 @@ std::pair<int, std::string> describe(const std::exception_ptr& failure) {
   } catch (...) { return {4, "unknown error"}; }
 }
 
+std::vector<std::function<void()>>& stop_hooks() {
+  static std::vector<std::function<void()>> hooks;
+  return hooks;
+}
+
 bool started = false;
 int world_rank = 0, world_size = 1, machine_size = 1;
 
@@ -52,9 +57,13 @@ void start(int* argc, char*** argv) {
   MPI_Comm_free(&machine);
 }
 
+void before_stop(std::function<void()> fn) { stop_hooks().push_back(std::move(fn)); }
+
 void stop() {
   if (!started) return;
   started = false;
+  for (auto it = stop_hooks().rbegin(); it != stop_hooks().rend(); ++it) (*it)();
+  stop_hooks().clear();
   MPI_Finalize();
 }
 
@@ -134,6 +143,7 @@ void agree(const std::exception_ptr& failure) {
 
 void start(int*, char***) {}
 void stop() {}
+void before_stop(std::function<void()>) {}  // nothing starts on MPI without it
 void abort_all(int code) { std::exit(code); }
 int rank() { return 0; }
 int size() { return 1; }

@@ -13,6 +13,7 @@
 #pragma once
 
 #include <exception>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -26,6 +27,9 @@ namespace ranks {
 void start(int* argc, char*** argv);
 // Ends MPI (MPI_Finalize) if start() began it; call once, last thing in main().
 void stop();
+// Registers what must end before MPI does (a library started on MPI: PETSc); stop() calls each,
+// the latest first, before MPI_Finalize.
+void before_stop(std::function<void()> fn);
 // Ends every rank of the job at once (MPI_Abort) with exit status `code`; on one rank, exit().
 [[noreturn]] void abort_all(int code);
 

@@ -15,6 +15,7 @@
 #include <stdexcept>
 #include <tuple>
 
+#include "distributed/distributed_gmres.h"
 #include "distributed/fill_stats.h"
 #include "distributed/ranks.h"
 #include "distributed/row_partition.h"
@@ -690,16 +691,20 @@ void solve_dense_on_ranks(const Scene& scene, const Visibility* vis_ptr, const D
                           const SolveOptions& opt, SolveResult& r, StageTimer& timer) {
   SolveSummary& s = r.summary;
   const int n = s.patches, R = ranks::size();
-  // Only Gauss–Seidel splits over the ranks; auto must have picked it for one process too.
+  // Gauss–Seidel (block Jacobi–Gauss–Seidel) and GMRES (PETSc) split over the ranks; auto picks
+  // as for one process, GMRES where that would be the direct LU of a small stiff scene.
   double max_rho = 0.0;
   for (int i = 0; i < n; ++i) max_rho = std::max(max_rho, r.reflectance.row(i).maxCoeff());
-  const SolverMethod method =
-      opt.solver.method == SolverMethod::Auto ? choose_method(max_rho, n, true) : opt.solver.method;
-  if (method != SolverMethod::GaussSeidel)
+  SolverMethod method = opt.solver.method == SolverMethod::Auto ? choose_method(max_rho, n, true) : opt.solver.method;
+  if (opt.solver.method == SolverMethod::Auto && method == SolverMethod::Direct) method = SolverMethod::Gmres;
+  const std::string on_ranks_methods = distributed_gmres_available()
+                                           ? "block Gauss–Seidel or GMRES (--solver gauss-seidel or gmres)"
+                                           : "block Gauss–Seidel (--solver gauss-seidel; GMRES needs a build with "
+                                             "PETSc, petsc-dev)";
+  if (method != SolverMethod::GaussSeidel && !(method == SolverMethod::Gmres && distributed_gmres_available()))
     throw_bad_input(std::string("--solver ") + method_name(method) +
                     (opt.solver.method == SolverMethod::Auto ? " (what auto picks for this scene's reflectance)" : "") +
-                    " runs as one process; on several MPI ranks the solve is block Gauss–Seidel (--solver "
-                    "gauss-seidel)");
+                    " runs as one process; on several MPI ranks the solve is " + on_ranks_methods);
   // The rows of this rank and their memory: rows × N doubles, plus the per-patch arrays.
   std::vector<Vec3> centroids;
   for (const Patch& p : r.mesh.patches) centroids.push_back(p.centroid);
@@ -790,14 +795,17 @@ void solve_dense_on_ranks(const Scene& scene, const Visibility* vis_ptr, const D
   if (r.reflectance.minCoeff() < 0.0 || max_rho >= 1.0 || r.emission.minCoeff() < 0.0)
     throw_bad_input(scene.source + ": reflectance must lie in [0, 1) and emission be >= 0 for the solve");
   SolverReport& report = s.solver;
-  report.method = SolverMethod::GaussSeidel;
+  report.method = method;
   report.channels_solved = grey ? 1 : 3;
   report.converged = true;
   r.radiosity = ChannelMatrix::Zero(n, 3);
   for (int c = 0; c < report.channels_solved; ++c) {
     Eigen::VectorXd B;
-    const ChannelResult cr =
-        block_gauss_seidel_channel(block, r.emission.col(c), r.reflectance.col(c), direct.col(c), opt.solver, sum, B);
+    const ChannelResult cr = method == SolverMethod::Gmres
+                                 ? distributed_gmres_channel(block, parts, r.emission.col(c), r.reflectance.col(c),
+                                                             direct.col(c), opt.solver, B)
+                                 : block_gauss_seidel_channel(block, r.emission.col(c), r.reflectance.col(c),
+                                                              direct.col(c), opt.solver, sum, B);
     r.radiosity.col(c) = B;
     report.iterations = std::max(report.iterations, cr.iterations);
     report.residual = std::max(report.residual, cr.residual);
@@ -805,8 +813,11 @@ void solve_dense_on_ranks(const Scene& scene, const Visibility* vis_ptr, const D
   }
   if (grey) r.radiosity.col(1) = r.radiosity.col(2) = r.radiosity.col(0);
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - solve_start).count();
-  report.detail = "block Jacobi–Gauss–Seidel: each of " + std::to_string(R) +
-                  " ranks sweeps its rows, the ranks' values exchanged after every sweep";
+  report.detail = method == SolverMethod::Gmres
+                      ? "PETSc GMRES(30), unpreconditioned, on a shell operator: each of " + std::to_string(R) +
+                            " ranks forms its rows of (I − ρF)x, x gathered on every rank for each product"
+                      : "block Jacobi–Gauss–Seidel: each of " + std::to_string(R) +
+                            " ranks sweeps its rows, the ranks' values exchanged after every sweep";
   if (!report.converged) throw_not_converged(scene, report, opt.solver.tolerance);
   // H = H_direct + F B per channel, each rank its rows, summed.
   r.irradiance = ChannelMatrix::Zero(n, 3);

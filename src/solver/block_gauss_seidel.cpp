@@ -4,11 +4,8 @@
 
 namespace photometria {
 
-namespace {
-
-// ‖E + ρ∘(F·B + H) − B‖₂² over the block's rows.
-double residual_squared(const RowBlock& block, const Eigen::VectorXd& E, const Eigen::VectorXd& rho,
-                        const Eigen::VectorXd& H, const Eigen::VectorXd& B) {
+double block_residual_squared(const RowBlock& block, const Eigen::VectorXd& E, const Eigen::VectorXd& rho,
+                              const Eigen::VectorXd& H, const Eigen::VectorXd& B) {
   double r2 = 0.0;
   for (size_t k = 0; k < block.rows.size(); ++k) {
     const int i = block.rows[k];
@@ -18,8 +15,6 @@ double residual_squared(const RowBlock& block, const Eigen::VectorXd& E, const E
   return r2;
 }
 
-}  // namespace
-
 ChannelResult block_gauss_seidel_channel(const RowBlock& block, const Eigen::VectorXd& E, const Eigen::VectorXd& rho,
                                          const Eigen::VectorXd& H, const SolverOptions& opt,
                                          const SumOverProcesses& sum, Eigen::VectorXd& B) {
@@ -27,7 +22,7 @@ ChannelResult block_gauss_seidel_channel(const RowBlock& block, const Eigen::Vec
   B = E;  // first guess: emission only
   std::vector<double> exchange(size_t(n) + 2);
   auto relative_residual = [&] {
-    std::vector<double> r2 = {residual_squared(block, E, rho, H, B)};
+    std::vector<double> r2 = {block_residual_squared(block, E, rho, H, B)};
     sum(r2);
     const double bn = B.norm();
     return bn > 0 ? std::sqrt(r2[0]) / bn : std::sqrt(r2[0]);
