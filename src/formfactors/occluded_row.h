@@ -115,7 +115,11 @@ class OccludedRowIntegrator {
   const PatchMesh& mesh_;
   visibility_detail::ShadowVolumes volumes_;  // seen from the current receiver point
   visibility_detail::PiecePool pieces_clip_, hidden_;
-  std::vector<int> casting_;        // scratch of blocked_at
+  std::vector<int> casting_;  // scratch of blocked_at
+  // Per solid: whether the current receiver point is outside it (ShaftCuller::drop_hidden_occluders),
+  // kept across the point's sources.
+  std::vector<signed char> outside_state_;
+  std::vector<int> touched_solids_;
   std::vector<int> occluder_pool_;  // the row's occluder lists (OccluderSpan), appended as boxes are culled
   // The receiver and the sources of the current row.
   const std::vector<OccludedSource>* sources_ = nullptr;

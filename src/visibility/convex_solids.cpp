@@ -236,16 +236,21 @@ bool ShaftCuller::hidden_from(const Vec3& x, int f, int on_face, const Vec3* nor
 }
 
 void ShaftCuller::drop_hidden_occluders(const Vec3& x, std::vector<int>& faces, int on_face, const Vec3* normal) const {
-  if (solids_.empty() && closed_solids_.empty()) return;
   thread_local std::vector<signed char> outside_state;
   thread_local std::vector<int> touched;
+  drop_hidden_occluders(x, faces, on_face, normal, outside_state, touched);
+  for (int solid : touched) outside_state[size_t(solid)] = 0;
+  touched.clear();
+}
+
+void ShaftCuller::drop_hidden_occluders(const Vec3& x, std::vector<int>& faces, int on_face, const Vec3* normal,
+                                        std::vector<signed char>& outside_state, std::vector<int>& touched) const {
+  if (solids_.empty() && closed_solids_.empty()) return;
   outside_state.resize(solids_.size() + closed_solids_.size(), 0);
   size_t kept = 0;
   for (int f : faces)
     if (!hidden_from(x, f, on_face, normal, outside_state, touched)) faces[kept++] = f;
   faces.resize(kept);
-  for (int solid : touched) outside_state[size_t(solid)] = 0;
-  touched.clear();
 }
 
 }  // namespace photometria

@@ -122,6 +122,12 @@ class ShaftCuller {
   // the plane there borders that face's front, so segments to sources in front start outside.
   void drop_hidden_occluders(const Vec3& x, std::vector<int>& occluders, int on_face = -1,
                              const Vec3* normal = nullptr) const;
+  // The same for several lists seen from one point (x, on_face and normal unchanged between the
+  // calls): whether x is outside each solid is learnt once and kept in `outside_state` (resized
+  // here; per solid 0 unknown, 1 outside, 2 not) until the caller resets the entries of the solids
+  // listed in `touched` to 0 and clears it, for a new point.
+  void drop_hidden_occluders(const Vec3& x, std::vector<int>& occluders, int on_face, const Vec3* normal,
+                             std::vector<signed char>& outside_state, std::vector<int>& touched) const;
   // True when x lies on the surface of a closed solid that is not convex (within tolerance()):
   // then what drop_hidden_occluders leaves depends on the receiver's normal as well.
   bool on_closed_solid(const Vec3& x) const {
