@@ -180,7 +180,6 @@ ChannelResult distributed_gmres_channel(const RowBlock& block, const std::vector
     if (reason <= 0 || ++restarts > 4 || steps == 0) break;
     rtol *= 0.1;
   }
-  result.detail = "PETSc KSPGMRES(" + std::to_string(restart) + ") on " + std::to_string(ranks::size()) + " ranks";
   return result;
 }
 

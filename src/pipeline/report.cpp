@@ -114,7 +114,7 @@ nlohmann::json summary_json(const Scene& scene, const SolveSummary& s) {
   j["solver"] = {
       {"method", method_name(s.solver.method)}, {"seconds", s.solver.seconds}, {"iterations", s.solver.iterations},
       {"residual", s.solver.residual},          {"tolerance", s.tolerance},    {"channels", s.solver.channels_solved},
-      {"converged", s.solver.converged}};
+      {"converged", s.solver.converged},        {"detail", s.solver.detail}};
   j["output_points"] = s.output_points;
   j["crease_angle_degrees"] = s.crease_angle_degrees;
   j["vertex_gather"] = {{"pairs_evaluated", s.vertex_pairs_evaluated},
@@ -200,7 +200,8 @@ std::string summary_table(const Scene& scene, const SolveSummary& s) {
                     : s.solver.method == SolverMethod::Direct                                            ? " LU solves"
                                                                                                          : " products")
                 << ", residual " << std::setprecision(3) << s.solver.residual << ", " << s.solver.channels_solved
-                << (s.solver.channels_solved == 1 ? " channel (all grey)" : " channels") << "\n";
+                << (s.solver.channels_solved == 1 ? " channel (all grey)" : " channels")
+                << (s.solver.detail.empty() ? "" : "; " + s.solver.detail) << "\n";
   row("output points") << s.output_points << " (crease angle " << s.crease_angle_degrees << "°)\n";
   row("emitted W") << rgb(s.energy.emitted) << "\n";
   if (s.lights) row("from lights W") << rgb(s.energy.direct_in) << " (" << s.lights << " analytic lights)\n";
