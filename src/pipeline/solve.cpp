@@ -685,8 +685,9 @@ void solve_dense(const Scene& scene, const Visibility* vis_ptr, const DirectLigh
 // The dense method on MPI ranks (distributed/ranks.h): each rank fills the rows of F a spatial
 // partition balanced by the rows' estimated costs gives it (distributed/row_partition.h) and
 // holds only those, the solve is block Jacobi–Gauss–Seidel over the ranks' rows
-// (solver/block_gauss_seidel.h), and every rank ends with all of B, H and the checks, summed
-// over the ranks, so that the vertex gather can be split by point (gather_at_points).
+// (solver/block_gauss_seidel.h) or GMRES through PETSc (distributed/distributed_gmres.h), and
+// every rank ends with all of B, H and the checks, summed over the ranks, so that the vertex
+// gather can be split by point (gather_at_points).
 void solve_dense_on_ranks(const Scene& scene, const Visibility* vis_ptr, const DirectLighting& lights,
                           const SolveOptions& opt, SolveResult& r, StageTimer& timer) {
   SolveSummary& s = r.summary;
