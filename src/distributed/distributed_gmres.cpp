@@ -131,13 +131,9 @@ ChannelResult distributed_gmres_channel(const RowBlock& block, const std::vector
     check(VecRestoreArray(b, &bb), "VecRestoreArray");
     check(VecRestoreArray(x, &xb), "VecRestoreArray");
   }
-  // ‖E + ρ∘(F·B + H) − B‖₂ / ‖B‖₂ with every rank's rows, from B whole on every rank.
-  auto relative_residual = [&] {
-    std::vector<double> r2 = {block_residual_squared(block, E, rho, H, B)};
-    ranks::sum(r2);
-    const double bn = B.norm();
-    return bn > 0 ? std::sqrt(r2[0]) / bn : std::sqrt(r2[0]);
-  };
+  // The common residual (solver.h) with every rank's rows, from B whole on every rank.
+  const SumOverProcesses sum = [](std::vector<double>& v) { ranks::sum(v); };
+  auto relative_residual = [&] { return block_relative_residual(block, E, rho, H, B, sum); };
   check(gather(op, x, B), "gather");
   ChannelResult result;
   result.iterations = 1;

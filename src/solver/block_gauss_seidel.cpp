@@ -4,15 +4,17 @@
 
 namespace photometria {
 
-double block_residual_squared(const RowBlock& block, const Eigen::VectorXd& E, const Eigen::VectorXd& rho,
-                              const Eigen::VectorXd& H, const Eigen::VectorXd& B) {
-  double r2 = 0.0;
+double block_relative_residual(const RowBlock& block, const Eigen::VectorXd& E, const Eigen::VectorXd& rho,
+                               const Eigen::VectorXd& H, const Eigen::VectorXd& B, const SumOverProcesses& sum) {
+  std::vector<double> r2 = {0.0};
   for (size_t k = 0; k < block.rows.size(); ++k) {
     const int i = block.rows[k];
     const double r = E[i] + rho[i] * (block.F.row(Eigen::Index(k)).dot(B) + H[i]) - B[i];
-    r2 += r * r;
+    r2[0] += r * r;
   }
-  return r2;
+  sum(r2);
+  const double bn = B.norm();
+  return bn > 0 ? std::sqrt(r2[0]) / bn : std::sqrt(r2[0]);
 }
 
 ChannelResult block_gauss_seidel_channel(const RowBlock& block, const Eigen::VectorXd& E, const Eigen::VectorXd& rho,
@@ -21,12 +23,7 @@ ChannelResult block_gauss_seidel_channel(const RowBlock& block, const Eigen::Vec
   const Eigen::Index n = E.size();
   B = E;  // first guess: emission only
   std::vector<double> exchange(size_t(n) + 2);
-  auto relative_residual = [&] {
-    std::vector<double> r2 = {block_residual_squared(block, E, rho, H, B)};
-    sum(r2);
-    const double bn = B.norm();
-    return bn > 0 ? std::sqrt(r2[0]) / bn : std::sqrt(r2[0]);
-  };
+  auto relative_residual = [&] { return block_relative_residual(block, E, rho, H, B, sum); };
   double residual = relative_residual();
   if (residual <= opt.tolerance) return {0, residual, true, false, ""};
   for (int sweep = 1; sweep <= opt.max_iterations; ++sweep) {

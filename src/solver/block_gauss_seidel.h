@@ -35,10 +35,11 @@ struct RowBlock {
 // with one process, nothing to do. Every process calls it the same number of times.
 using SumOverProcesses = std::function<void(std::vector<double>&)>;
 
-// ‖E + ρ∘(F·B + H) − B‖₂² over the block's rows (B: all N patches'); summed over the processes,
-// the square of the residual every solver stops on (solver.h) times ‖B‖₂².
-double block_residual_squared(const RowBlock& block, const Eigen::VectorXd& E, const Eigen::VectorXd& rho,
-                              const Eigen::VectorXd& H, const Eigen::VectorXd& B);
+// The residual every solver stops on (solver.h), ‖E + ρ∘(F·B + H) − B‖₂ / ‖B‖₂, from the rows
+// of every process (each its block's, summed with `sum`); B: all N patches', the same on every
+// process. A collective when the processes are MPI ranks.
+double block_relative_residual(const RowBlock& block, const Eigen::VectorXd& E, const Eigen::VectorXd& rho,
+                               const Eigen::VectorXd& H, const Eigen::VectorXd& B, const SumOverProcesses& sum);
 
 // Solves one channel from the first guess B = E. E, rho, H: all N patches' emission (W/m²),
 // reflectance and direct irradiance (W/m²), the same on every process; B (N) is resized and
