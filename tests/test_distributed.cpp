@@ -156,13 +156,13 @@ namespace {
 
 // `mpirun -np R photometria ARGS`, allowed as root and on more ranks than cores (Open MPI reads
 // these variables; other MPIs ignore them).
-cli_test::CliRun run_ranks(int ranks, const std::string& args, const std::string& err_file) {
+cli_test::CliRun run_ranks(int ranks, const std::string& args, const std::string& err_file,
+                           const std::string& binary = PHOTOMETRIA_BINARY) {
   setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
   setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
   setenv("OMPI_MCA_rmaps_base_oversubscribe", "1", 1);
   return cli_test::run_command(
-      std::string(PHOTOMETRIA_MPIEXEC) + " -np " + std::to_string(ranks) + " " + PHOTOMETRIA_BINARY + " " + args,
-      err_file);
+      std::string(PHOTOMETRIA_MPIEXEC) + " -np " + std::to_string(ranks) + " " + binary + " " + args, err_file);
 }
 
 const std::string kRoom = std::string(PHOTOMETRIA_SOURCE_DIR) + "/tests/data/room_faces_05.vs3";
@@ -346,6 +346,29 @@ TEST(MpiSolve, TheSameRadiosityOnAnyNumberOfRanks) {
 // own GMRES in one process.
 TEST(MpiSolve, GmresThroughPetscGivesTheSameRadiosityOnAnyNumberOfRanks) {
   expect_the_same_solve_on_ranks("distributed_mpi_gmres", "--solver gmres", "gmres");
+}
+
+// PETSc is a module beside the executable (distributed/petsc/petsc_gmres_module.h): a copy of the
+// executable without it still runs everything else, and refuses GMRES on ranks in one line that
+// says why.
+TEST(MpiSolve, GmresWithoutThePetscModuleIsRefusedInOneLine) {
+  const fs::path dir = test_scratch::fresh_dir("distributed_mpi_no_module");
+  const fs::path alone = dir / "photometria";
+  fs::copy_file(PHOTOMETRIA_BINARY, alone);
+  const std::string cornell = std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/cornell_box.obj";
+  const auto run = [&](const std::string& solver) {
+    return run_ranks(2, "solve " + cornell + " --quiet --solver " + solver + " -o " + (dir / "x.vtu").string(),
+                     (dir / "err").string(), alone.string());
+  };
+  const cli_test::CliRun gmres = run("gmres");
+  EXPECT_EQ(gmres.exit_code, 1) << gmres.err;
+  EXPECT_NE(gmres.err.find("cannot load the PETSc module"), std::string::npos) << gmres.err;
+  EXPECT_NE(gmres.err.find("libphotometria_petsc.so"), std::string::npos) << gmres.err;
+  EXPECT_EQ(lines(gmres.err), 1) << gmres.err;
+  const cli_test::CliRun gauss_seidel = run("gauss-seidel");
+  EXPECT_EQ(gauss_seidel.exit_code, 0) << gauss_seidel.err;
+  EXPECT_TRUE(fs::exists(dir / "x.vtu"));
+  fs::remove_all(dir);
 }
 #endif
 

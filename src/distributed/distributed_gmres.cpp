@@ -1,194 +1,102 @@
+// GMRES on MPI ranks: the program's side. The PETSc solve lives in a module loaded on first use
+// (distributed/petsc/petsc_gmres_module.h says why); this file finds and loads it.
 #include "distributed/distributed_gmres.h"
 
-#include <cmath>
+#include <dlfcn.h>
+#include <unistd.h>
+
+#include <climits>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 
+#include "distributed/petsc/petsc_gmres_module.h"
 #include "distributed/ranks.h"
-
-#if PHOTOMETRIA_HAVE_PETSC
-#include <petscksp.h>
-#endif
 
 namespace photometria {
 
-#if PHOTOMETRIA_HAVE_PETSC
-
 namespace {
 
-// A failed PETSc call as an exception (PETSc's own handler would print a trace and abort).
-void check(PetscErrorCode code, const char* call) {
-  if (code == 0) return;
-  const char* text = nullptr;
-  PetscErrorMessage(code, &text, nullptr);
-  throw std::runtime_error(std::string("PETSc: ") + call + " failed: " + (text ? text : std::to_string(int(code))));
-}
-
-// PETSc on the MPI that ranks::start() began, once per process; finalised before MPI is.
-void start_petsc() {
-  static bool started = false;
-  if (started) return;
-  check(PetscInitializeNoArguments(), "PetscInitialize");
-  check(PetscPushErrorHandler(PetscReturnErrorHandler, nullptr), "PetscPushErrorHandler");
-  started = true;
-  ranks::before_stop([] { PetscFinalize(); });
-}
-
-// K = I − diag(ρ) F on this rank's rows; PETSc's index p is patch patch_of_index[p].
-struct Operator {
-  const RowBlock* block = nullptr;
-  const Eigen::VectorXd* rho = nullptr;
-  const std::vector<int>* patch_of_index = nullptr;
-  VecScatter to_all = nullptr;  // x onto every rank
-  Vec gathered = nullptr;       // x, whole, in PETSc's order
-  Eigen::VectorXd x;            // x, whole, in patch order
+// The module's entry points, or why there are none.
+struct PetscModule {
+  PetscGmresSolve solve = nullptr;
+  PetscGmresFinalize finalize = nullptr;
+  std::string why_not;
 };
 
-// Every rank gets all of v, in patch order, in out.
-PetscErrorCode gather(Operator& op, Vec v, Eigen::VectorXd& out) {
-  PetscFunctionBeginUser;
-  PetscCall(VecScatterBegin(op.to_all, v, op.gathered, INSERT_VALUES, SCATTER_FORWARD));
-  PetscCall(VecScatterEnd(op.to_all, v, op.gathered, INSERT_VALUES, SCATTER_FORWARD));
-  const PetscScalar* a = nullptr;
-  PetscCall(VecGetArrayRead(op.gathered, &a));
-  const std::vector<int>& patch = *op.patch_of_index;
-  out.resize(Eigen::Index(patch.size()));
-  for (size_t p = 0; p < patch.size(); ++p) out[patch[p]] = a[p];
-  PetscCall(VecRestoreArrayRead(op.gathered, &a));
-  PetscFunctionReturn(0);
+// The module beside the executable (CMake writes both to the same directory).
+std::string module_path() {
+  char exe[PATH_MAX];
+  const ssize_t n = ::readlink("/proc/self/exe", exe, sizeof exe - 1);
+  if (n <= 0) return kPetscModuleFile;  // the loader's search path
+  const std::string path(exe, size_t(n));
+  const size_t slash = path.rfind('/');
+  return (slash == std::string::npos ? std::string() : path.substr(0, slash + 1)) + kPetscModuleFile;
 }
 
-// y = K x, this rank's rows (the shell matrix's MatMult).
-PetscErrorCode apply_operator(Mat A, Vec x, Vec y) {
-  PetscFunctionBeginUser;
-  Operator* op = nullptr;
-  PetscCall(MatShellGetContext(A, &op));
-  PetscCall(gather(*op, x, op->x));
-  PetscScalar* out = nullptr;
-  PetscCall(VecGetArray(y, &out));
-  const RowBlock& block = *op->block;
-  const Eigen::VectorXd& rho = *op->rho;
-  const Eigen::VectorXd& xs = op->x;
-#pragma omp parallel for schedule(static)
-  for (size_t k = 0; k < block.rows.size(); ++k) {
-    const int i = block.rows[k];
-    out[k] = xs[i] - rho[i] * block.F.row(Eigen::Index(k)).dot(xs);
-  }
-  PetscCall(VecRestoreArray(y, &out));
-  PetscFunctionReturn(0);
+const PetscModule& petsc_module() {
+  static PetscModule module;
+  static std::once_flag once;
+  std::call_once(once, [] {
+#if PHOTOMETRIA_HAVE_PETSC
+    const std::string path = module_path();
+    void* handle = ::dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);  // kept loaded until the process ends
+    if (!handle) {
+      const char* why = ::dlerror();
+      module.why_not = "cannot load the PETSc module: " + std::string(why ? why : path);
+      return;
+    }
+    module.solve = reinterpret_cast<PetscGmresSolve>(::dlsym(handle, kPetscGmresSolveSymbol));
+    module.finalize = reinterpret_cast<PetscGmresFinalize>(::dlsym(handle, kPetscGmresFinalizeSymbol));
+    if (!module.solve || !module.finalize) {
+      module.solve = nullptr;
+      module.why_not = path + " lacks " + kPetscGmresSolveSymbol;
+      return;
+    }
+    // PETSc, once started on the ranks' MPI, must end before it.
+    ranks::before_stop([finalize = module.finalize] { finalize(); });
+#else
+    module.why_not = "this build has no PETSc (install petsc-dev and rebuild)";
+#endif
+  });
+  return module;
 }
 
 }  // namespace
 
-bool distributed_gmres_available() { return true; }
+bool distributed_gmres_available() { return petsc_module().solve != nullptr; }
+
+std::string distributed_gmres_unavailable_reason() { return petsc_module().why_not; }
 
 ChannelResult distributed_gmres_channel(const RowBlock& block, const std::vector<std::vector<int>>& parts,
                                         const Eigen::VectorXd& E, const Eigen::VectorXd& rho, const Eigen::VectorXd& H,
                                         const SolverOptions& options, Eigen::VectorXd& B, int restart) {
-  start_petsc();
-  const Eigen::Index n = E.size();
+  const PetscModule& module = petsc_module();
+  if (!module.solve) throw std::runtime_error("distributed GMRES: " + module.why_not);
   std::vector<int> patch_of_index;
   for (const std::vector<int>& part : parts) patch_of_index.insert(patch_of_index.end(), part.begin(), part.end());
-  if (Eigen::Index(patch_of_index.size()) != n) throw std::invalid_argument("distributed_gmres: parts do not cover F");
-  const PetscInt local = PetscInt(block.rows.size());
-
-  Operator op;
-  op.block = &block;
-  op.rho = &rho;
-  op.patch_of_index = &patch_of_index;
-  Mat K = nullptr;
-  Vec x = nullptr, b = nullptr;
-  KSP ksp = nullptr;
-  // Everything PETSc made, destroyed on every path out (the calls accept null handles).
-  struct Cleanup {
-    Mat& K;
-    Vec &x, &b;
-    KSP& ksp;
-    Operator& op;
-    ~Cleanup() {
-      KSPDestroy(&ksp);
-      VecScatterDestroy(&op.to_all);
-      VecDestroy(&op.gathered);
-      VecDestroy(&x);
-      VecDestroy(&b);
-      MatDestroy(&K);
-    }
-  } cleanup{K, x, b, ksp, op};
-
-  check(MatCreateShell(PETSC_COMM_WORLD, local, local, PetscInt(n), PetscInt(n), &op, &K), "MatCreateShell");
-  check(MatShellSetOperation(K, MATOP_MULT, reinterpret_cast<void (*)(void)>(apply_operator)), "MatShellSetOperation");
-  check(MatCreateVecs(K, &x, &b), "MatCreateVecs");
-  check(VecScatterCreateToAll(x, &op.to_all, &op.gathered), "VecScatterCreateToAll");
-  {
-    PetscScalar *xb = nullptr, *bb = nullptr;
-    check(VecGetArray(x, &xb), "VecGetArray");
-    check(VecGetArray(b, &bb), "VecGetArray");
-    for (size_t k = 0; k < block.rows.size(); ++k) {
-      const int i = block.rows[k];
-      bb[k] = E[i] + rho[i] * H[i];
-      xb[k] = E[i];  // first guess: emission only, as the other solvers
-    }
-    check(VecRestoreArray(b, &bb), "VecRestoreArray");
-    check(VecRestoreArray(x, &xb), "VecRestoreArray");
-  }
+  if (Eigen::Index(patch_of_index.size()) != E.size())
+    throw std::invalid_argument("distributed_gmres: parts do not cover F");
   // The common residual (solver.h) with every rank's rows, from B whole on every rank.
   const SumOverProcesses sum = [](std::vector<double>& v) { ranks::sum(v); };
-  auto relative_residual = [&] { return block_relative_residual(block, E, rho, H, B, sum); };
-  check(gather(op, x, B), "gather");
   ChannelResult result;
-  result.iterations = 1;
-  result.residual = relative_residual();
-  if (result.residual <= options.tolerance) {
-    result.converged = true;
-    return result;
-  }
-
-  check(KSPCreate(PETSC_COMM_WORLD, &ksp), "KSPCreate");
-  check(KSPSetOperators(ksp, K, K), "KSPSetOperators");
-  check(KSPSetType(ksp, KSPGMRES), "KSPSetType");
-  check(KSPGMRESSetRestart(ksp, PetscInt(restart)), "KSPGMRESSetRestart");
-  check(KSPGMRESSetOrthogonalization(ksp, KSPGMRESModifiedGramSchmidtOrthogonalization),
-        "KSPGMRESSetOrthogonalization");
-  PC pc = nullptr;
-  check(KSPGetPC(ksp, &pc), "KSPGetPC");
-  check(PCSetType(pc, PCNONE), "PCSetType");
-  check(KSPSetInitialGuessNonzero(ksp, PETSC_TRUE), "KSPSetInitialGuessNonzero");
-  double rtol = options.tolerance;
-  int restarts = 0;
-  while (true) {
-    const int left = options.max_iterations - result.iterations;
-    if (left <= 0) break;
-    check(KSPSetTolerances(ksp, rtol, 0.0, PETSC_DEFAULT, PetscInt(left)), "KSPSetTolerances");
-    check(KSPSolve(ksp, b, x), "KSPSolve");
-    PetscInt steps = 0;
-    check(KSPGetIterationNumber(ksp, &steps), "KSPGetIterationNumber");
-    check(gather(op, x, B), "gather");
-    result.iterations += int(steps) + 1;
-    result.residual = relative_residual();
-    if (result.residual <= options.tolerance) {
-      result.converged = true;
-      break;
-    }
-    KSPConvergedReason reason;
-    check(KSPGetConvergedReason(ksp, &reason), "KSPGetConvergedReason");
-    // PETSc met its test but ours is not met (rounding in GMRES's residual estimate): continue
-    // from B, ten times tighter, a few times at most; anything else is the end.
-    if (reason <= 0 || ++restarts > 4 || steps == 0) break;
-    rtol *= 0.1;
-  }
+  std::string error;
+  PetscGmresRequest request;
+  request.block = &block;
+  request.patch_of_index = &patch_of_index;
+  request.E = &E;
+  request.rho = &rho;
+  request.H = &H;
+  request.options = &options;
+  request.restart = restart;
+  request.relative_residual = [&](const Eigen::VectorXd& x) {
+    return block_relative_residual(block, E, rho, H, x, sum);
+  };
+  request.B = &B;
+  request.result = &result;
+  request.error = &error;
+  if (module.solve(&request) != 0) throw std::runtime_error("distributed GMRES: " + error);
   return result;
 }
-
-#else
-
-bool distributed_gmres_available() { return false; }
-
-ChannelResult distributed_gmres_channel(const RowBlock&, const std::vector<std::vector<int>>&, const Eigen::VectorXd&,
-                                        const Eigen::VectorXd&, const Eigen::VectorXd&, const SolverOptions&,
-                                        Eigen::VectorXd&, int) {
-  throw std::runtime_error("distributed GMRES: this build has no PETSc (install petsc-dev and rebuild)");
-}
-
-#endif
 
 }  // namespace photometria

@@ -20,6 +20,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <string>
 #include <vector>
 
 #include "solver/block_gauss_seidel.h"
@@ -28,8 +29,12 @@
 
 namespace photometria {
 
-// True when the build has PETSc (CMake found petsc-dev with MPI).
+// True when the build has PETSc (CMake found petsc-dev with MPI) and its module loads: the first
+// call loads libphotometria_petsc.so from the executable's directory (distributed/petsc/
+// petsc_gmres_module.h says why PETSc is a module).
 bool distributed_gmres_available();
+// Why it is not available, in a few words ("" when it is).
+std::string distributed_gmres_unavailable_reason();
 
 // Solves one channel from the first guess B = E. `parts`: every rank's rows (parts[r] of rank r;
 // the same on every rank), `block` this rank's (block.rows == parts[ranks::rank()]). E, rho, H:
@@ -37,7 +42,7 @@ bool distributed_gmres_available();
 // rank; B (N) is resized and overwritten, and ends the same on every rank. A collective: every
 // rank calls it, on MPI that ranks::start() began (PETSc starts on it at the first call and ends
 // in ranks::stop()). Iterations count PETSc's products and the true residual checks. Throws
-// std::runtime_error on a PETSc failure, or when the build has no PETSc.
+// std::runtime_error on a PETSc failure, or when the build has no PETSc or its module cannot load.
 ChannelResult distributed_gmres_channel(const RowBlock& block, const std::vector<std::vector<int>>& parts,
                                         const Eigen::VectorXd& E, const Eigen::VectorXd& rho, const Eigen::VectorXd& H,
                                         const SolverOptions& options, Eigen::VectorXd& B, int restart = 30);

@@ -698,14 +698,16 @@ void solve_dense_on_ranks(const Scene& scene, const Visibility* vis_ptr, const D
   for (int i = 0; i < n; ++i) max_rho = std::max(max_rho, r.reflectance.row(i).maxCoeff());
   SolverMethod method = opt.solver.method == SolverMethod::Auto ? choose_method(max_rho, n, true) : opt.solver.method;
   if (opt.solver.method == SolverMethod::Auto && method == SolverMethod::Direct) method = SolverMethod::Gmres;
-  const std::string on_ranks_methods = distributed_gmres_available()
-                                           ? "block Gauss–Seidel or GMRES (--solver gauss-seidel or gmres)"
-                                           : "block Gauss–Seidel (--solver gauss-seidel; GMRES needs a build with "
-                                             "PETSc, petsc-dev)";
-  if (method != SolverMethod::GaussSeidel && !(method == SolverMethod::Gmres && distributed_gmres_available()))
+  // (distributed_gmres_available loads the PETSc module: only where GMRES is asked for.)
+  if (method != SolverMethod::GaussSeidel && !(method == SolverMethod::Gmres && distributed_gmres_available())) {
+    const std::string on_ranks_methods =
+        distributed_gmres_available()
+            ? "block Gauss–Seidel or GMRES (--solver gauss-seidel or gmres)"
+            : "block Gauss–Seidel (--solver gauss-seidel; GMRES: " + distributed_gmres_unavailable_reason() + ")";
     throw_bad_input(std::string("--solver ") + method_name(method) +
                     (opt.solver.method == SolverMethod::Auto ? " (what auto picks for this scene's reflectance)" : "") +
                     " runs as one process; on several MPI ranks the solve is " + on_ranks_methods);
+  }
   // The rows of this rank and their memory: rows × N doubles, plus the per-patch arrays.
   std::vector<Vec3> centroids;
   for (const Patch& p : r.mesh.patches) centroids.push_back(p.centroid);
