@@ -7,7 +7,7 @@ packages=(
   libeigen3-dev libopenmesh-dev libvtk9-dev libembree-dev
   libcli11-dev nlohmann-json3-dev libtinyobjloader-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  libxsimd-dev
+  libxsimd-dev libfmt-dev
   libopenmpi-dev openmpi-bin petsc-dev
   gnuplot-nox
   clang libclang-rt-14-dev libomp-14-dev clang-format

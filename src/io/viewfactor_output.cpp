@@ -15,18 +15,18 @@
 
 #include "io/atomic_file.h"
 #include "io/direct_append.h"
+#include "io/shortest_decimal.h"
 #include "util/error.h"
 
 namespace photometria {
 
 namespace {
 
-// The shortest decimal that reads back as the same double (std::to_chars without a precision:
-// round-trip exact, and at most 17 significant digits; Steele & White, "How to print
-// floating-point numbers accurately", PLDI 1990, as implemented by the C++17 library).
+// The shortest decimal that reads back as the same double (io/shortest_decimal.h: the characters
+// of std::to_chars without a precision, round-trip exact, at most 17 significant digits).
 void append_shortest(std::string& out, double v) {
-  char buf[32];
-  out.append(buf, size_t(std::to_chars(buf, buf + sizeof buf, v).ptr - buf));
+  char buf[kShortestDecimalMaxChars];
+  out.append(buf, size_t(write_shortest(buf, v) - buf));
 }
 
 std::string shortest(double v) {
@@ -211,11 +211,11 @@ void ViewFactorForm::row(int i, const double* F_row, std::string& text, RowDrops
       append_shortest(text, areas_[size_t(i)]);
       // Straight into the row's memory: a shortest double takes at most 24 characters.
       const size_t start = text.size();
-      text.resize(start + size_t(n) * 25 + 1);
+      text.resize(start + size_t(n) * (kShortestDecimalMaxChars + 1) + 1);
       char* p = text.data() + start;
       for (int j = 0; j < n; ++j) {
         *p++ = ',';
-        p = std::to_chars(p, p + 24, F_row[j]).ptr;
+        p = write_shortest(p, F_row[j]);
       }
       *p++ = '\n';
       text.resize(size_t(p - text.data()));

@@ -7,10 +7,10 @@
 //
 // Inputs everywhere: `names` and `areas` (m²) of the n surfaces, F an n × n row-major matrix,
 // row i = from surface i. Values are written as the shortest decimal that reads back as the same
-// double (std::to_chars: round-trip exact, at most 17 significant digits) except in the view3d
-// form, which reproduces View3D's own text output. Rows are formatted on every core (OpenMP) and
-// appended in row order past the page cache (io/direct_append.h; the binary matrix too), one
-// thread appending while the others format.
+// double (the characters of std::to_chars, io/shortest_decimal.h: round-trip exact, at most 17
+// significant digits) except in the view3d form, which reproduces View3D's own text output.
+// Rows are formatted on every core (OpenMP) and appended in row order past the page cache
+// (io/direct_append.h; the binary matrix too), one thread appending while the others format.
 //
 //   csv     dense: header "name,area,<name_1>,...,<name_n>", then one line per row:
 //           "<name_i>,<A_i>,F_i1,...,F_in". Names with commas or quotes are CSV-quoted.
