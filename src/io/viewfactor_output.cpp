@@ -7,6 +7,7 @@
 #include <charconv>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 #include <fstream>
 #include <memory>
@@ -97,6 +98,11 @@ void format_sparse_row(int i, const double* row, int n, double threshold, std::s
                        long long& dropped_count, long long& written) {
   char index[16];
   const size_t index_length = size_t(std::to_chars(index, index + sizeof index, i).ptr - index);
+  // Straight into the row's memory, sized for every entry: "i," + j (at most 11 characters) +
+  // "," + a shortest double + "\n".
+  const size_t start = text.size();
+  text.resize(start + size_t(n) * (index_length + 1 + 11 + 1 + kShortestDecimalMaxChars + 1));
+  char* p = text.data() + start;
   for (int j = 0; j < n; ++j) {
     const double f = row[j];
     if (f == 0.0) continue;
@@ -105,13 +111,16 @@ void format_sparse_row(int i, const double* row, int n, double threshold, std::s
       ++dropped_count;
       continue;
     }
-    text.append(index, index_length).push_back(',');
-    char column[16];
-    text.append(column, size_t(std::to_chars(column, column + sizeof column, j).ptr - column)).push_back(',');
-    append_shortest(text, f);
-    text.push_back('\n');
+    std::memcpy(p, index, index_length);
+    p += index_length;
+    *p++ = ',';
+    p = std::to_chars(p, p + 11, j).ptr;
+    *p++ = ',';
+    p = write_shortest(p, f);
+    *p++ = '\n';
     ++written;
   }
+  text.resize(size_t(p - text.data()));
 }
 
 bool little_endian() {
