@@ -9,8 +9,9 @@ output points differ (patch corners against leaf corners), so the reference's pe
 are interpolated at each point of OTHER: linearly over the triangles of a fan of the reference
 cell, of the same input face (cell array `face`), that contains the point. Prints how many
 points were compared and the difference of the array (largest over the channels) relative to
-the reference's mean value over its points and channels (the scale of --error,
-docs/theory.md "Hierarchical radiosity"): RMS, 99th percentile and max.
+the reference's mean value over its points and channels (near, but not the same as, the
+area-weighted mean radiosity B̄ that --error refers to, docs/theory.md "Hierarchical
+radiosity"): RMS, 99th percentile and max.
 """
 
 import argparse

@@ -54,15 +54,15 @@ char* write_shortest(char* p, double v) {
   const int magnitude = scientific_exponent < 0 ? -scientific_exponent : scientific_exponent;
   const int scientific_length = n + (n > 1 ? 1 : 0) + 2 + (magnitude >= 100 ? 3 : 2);
   const int fixed_length = e >= 0 ? n + e : (n + e > 0 ? n + 1 : 2 - e);
+  char digits[18];
+  put_digits(digits, s, n);
   if (fixed_length <= scientific_length) {
     if (e >= 0) {  // ddd000
-      put_digits(p, s, n);
+      std::memcpy(p, digits, size_t(n));
       std::memset(p + n, '0', size_t(e));
       return p + n + e;
     }
     if (n + e > 0) {  // dd.ddd
-      char digits[18];
-      put_digits(digits, s, n);
       const int whole = n + e;
       std::memcpy(p, digits, size_t(whole));
       p[whole] = '.';
@@ -73,12 +73,10 @@ char* write_shortest(char* p, double v) {
     p[1] = '.';
     const int zeros = -e - n;
     std::memset(p + 2, '0', size_t(zeros));
-    put_digits(p + 2 + zeros, s, n);
+    std::memcpy(p + 2 + zeros, digits, size_t(n));
     return p + 2 - e;
   }
-  char digits[18];
-  put_digits(digits, s, n);
-  *p++ = digits[0];
+  *p++ = digits[0];  // d.ddde±XX
   if (n > 1) {
     *p++ = '.';
     std::memcpy(p, digits + 1, size_t(n - 1));
