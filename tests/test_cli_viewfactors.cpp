@@ -244,8 +244,10 @@ TEST(CliViewFactors, MaxMemoryRefusesBeforeTheFillNamingEstimateAndLimit) {
   EXPECT_NE(r.err.find("--max-memory: 'lots'"), std::string::npos) << r.err;
   EXPECT_TRUE(files_starting("mem.csv").empty());
 
-  // Under the limit: the estimate and the limit are in the summary.
-  r = run("viewfactors " + cube + " --by patch --max-edge 0.25 -o " + out.string() + " --max-memory 1G --json");
+  // Under the limit: the estimate and the limit are in the summary (stored: --stream no, as auto
+  // streams this convex scene).
+  r = run("viewfactors " + cube + " --by patch --max-edge 0.25 -o " + out.string() +
+          " --max-memory 1G --stream no --json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json j = nlohmann::json::parse(r.out);
   const auto& m = j["memory_estimate"];
@@ -267,7 +269,7 @@ TEST(CliViewFactors, MaxMemoryRefusesBeforeTheFillNamingEstimateAndLimit) {
 TEST(CliViewFactors, SparseRowsStreamWhenTheMatrixDoesNotFit) {
   const fs::path stored = scratch() / "stored.sparse", streamed = scratch() / "streamed.sparse";
   const std::string args = "viewfactors " + cube + " --by patch --max-edge 0.1 --format sparse --threshold 1e-3 ";
-  CliRun r = run(args + "-o " + stored.string() + " --json");
+  CliRun r = run(args + "-o " + stored.string() + " --stream no --json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(nlohmann::json::parse(r.out)["sparse"]["streamed"], false);
   // 600 patches: the stored matrix and its copy need about 6 MB.
@@ -298,6 +300,7 @@ TEST(CliViewFactors, SparseRowsStreamWhenTheMatrixDoesNotFit) {
     differing += fa != fb;
   }
   EXPECT_GT(differing, 0);  // (if not, the stored fill stopped mirroring: compare the files whole)
+  EXPECT_EQ(j["pairs"]["mirrored_by_reciprocity"], false);  // its blocks would not fit in 3 MiB
 
   r = run(args + "-o " + streamed.string() + " --max-memory 3M --stream no");
   EXPECT_EQ(r.exit_code, 1);
@@ -310,6 +313,32 @@ TEST(CliViewFactors, SparseRowsStreamWhenTheMatrixDoesNotFit) {
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("--stream: unknown mode 'sometimes'"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(scratch() / "x.csv"));
+}
+
+// Streamed where the mirrored blocks fit (--stream yes, no --max-memory): the closed forms are
+// computed once per pair and mirrored in bands, so every form is the stored matrix's file, byte
+// for byte.
+TEST(CliViewFactors, StreamedRowsOfAConvexSceneAreTheStoredFileByteForByte) {
+  const std::string args = "viewfactors " + cube + " --by patch --max-edge 0.1 ";
+  for (const std::string format : {"csv", "binary", "sparse"}) {
+    SCOPED_TRACE(format);
+    const fs::path stored = scratch() / ("stored." + format), streamed = scratch() / ("streamed." + format);
+    CliRun r = run(args + "--format " + format + " --stream no -o " + stored.string() + " --json");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(nlohmann::json::parse(r.out)["pairs"]["mirrored_by_reciprocity"], true);
+    r = run(args + "--format " + format + " --stream yes -o " + streamed.string() + " --json");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const nlohmann::json j = nlohmann::json::parse(r.out);
+    EXPECT_EQ(j["matrix"]["streamed"], true);
+    EXPECT_EQ(j["pairs"]["mirrored_by_reciprocity"], true);
+    EXPECT_EQ(j["surfaces"], 600);
+    // Both triangles were held for a while, so reciprocity was checked as for the stored matrix.
+    ASSERT_TRUE(j["checks"]["reciprocity_error_max"].is_number()) << r.out;
+    EXPECT_LT(j["checks"]["reciprocity_error_max"].get<double>(), 1e-15);
+    const std::string a = slurp(stored), b = slurp(streamed);
+    EXPECT_GT(a.size(), 1000000u);
+    EXPECT_TRUE(a == b) << "the streamed file differs from the stored one";
+  }
 }
 
 // A scene where most pairs face away (the Cornell box) is filled into sparse storage; the

@@ -315,20 +315,34 @@ TEST(ViewFactorJob, StreamedRowsOfEveryFormAreTheStoredOnesByteForByte) {
   }
 }
 
-// Auto streams only when the stored matrix would not fit the memory limit; `no` is then refused
-// by the memory check, and `yes` where the output needs the whole matrix.
+// Auto streams when the stored matrix would not fit the memory limit, or when nothing blocks and
+// the rows' closed forms mirror in bands within it; otherwise it stores. `no` is refused by the
+// memory check where the matrix does not fit, and `yes` where the output needs the whole matrix.
 TEST(ViewFactorJob, StreamingAutoFollowsTheMemoryLimit) {
   const fs::path dir = test_scratch::fresh_dir("photometria_vfjob_");
   ViewFactorJob job = cornell_job(dir);
-  job.scene = std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/furnace_cube.obj";  // convex: a quick fill
   job.level = AggregateLevel::Patch;
   job.format = ViewFactorFormat::Sparse;
-  job.fill.patching.max_edge = 0.1;
   job.fill.threads = 2;
+  const ViewFactorJobResult occluded = run_view_factor_job(job);  // the Cornell box: blocks inside
+  EXPECT_FALSE(occluded.streamed);
+  EXPECT_EQ(occluded.stream_reason, "auto: the matrix fits the memory limit, stored");
+
+  job.scene = std::string(PHOTOMETRIA_SOURCE_DIR) + "/meshes/furnace_cube.obj";  // convex: a quick fill
+  job.fill.patching.max_edge = 0.1;
+  job.stream = RowStreaming::No;
   const ViewFactorJobResult roomy = run_view_factor_job(job);
   EXPECT_FALSE(roomy.streamed);
-  EXPECT_EQ(roomy.stream_reason, "auto: the matrix fits the memory limit, stored");
-  // N = 600 patches: the stored matrix and its copy take about 5.8 MB, streamed rows < 1 MB.
+  job.stream = RowStreaming::Auto;
+  const ViewFactorJobResult mirrored = run_view_factor_job(job);
+  EXPECT_TRUE(mirrored.streamed);
+  EXPECT_EQ(mirrored.stream_reason.rfind("auto: nothing blocks and the closed forms mirror in bands", 0), 0u)
+      << mirrored.stream_reason;
+  EXPECT_TRUE(mirrored.fill.mirrored);
+  EXPECT_TRUE(mirrored.checks.reciprocity_checked);
+  EXPECT_EQ(mirrored.sparse.written, roomy.sparse.written);
+  // N = 600 patches: the stored matrix and its copy take about 5.8 MB, streamed rows < 1 MB, and
+  // the mirrored bands' blocks about 3.2 MB.
   ASSERT_EQ(roomy.patches, 600);
   job.fill.max_memory_bytes = 4 << 20;
   const ViewFactorJobResult tight = run_view_factor_job(job);

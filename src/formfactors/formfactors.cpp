@@ -427,9 +427,90 @@ class RowFill {
   FillCounts& k_;
 };
 
+#pragma omp declare reduction(merge:FillCounts : omp_out.merge(omp_in)) initializer(omp_priv = FillCounts())
+
+// Rows per band of the streamed, mirrored fill: few enough that a band's rows (kMirrorBand × n)
+// are small beside the held blocks, enough that the barriers between bands cost nothing.
+constexpr int kMirrorBand = 256;
+
+// The streamed fill with mirrored closed forms (FillOptions::streamed_mirror_bytes). Band after
+// band of kMirrorBand rows:
+//   1. the band's rows are filled as in the stored mirrored fill: a pair with a closed form only
+//      from its lower-index patch (j > i), every other pair in its row;
+//   2. the band's closed forms with later bands are copied, transposed, into blocks (band, J);
+//   3. each row's entries below the diagonal follow by reciprocity, A_i F_ij = A_j F_ji (the
+//      bands before from their blocks, the band itself from its rows), as
+//      FormFactors::mirror_lower does for a stored matrix, and the row goes to the sink;
+//   4. the blocks whose rows are now written are freed.
+// So every closed form is computed once, and at most about n²/4 entries are held at a time
+// (bands 0..K against bands after K). A sink that returns false stops it after its band. Both
+// triangles are at hand in step 3, so the reciprocity error of every pair is measured there.
+void fill_streamed_mirrored(const FillSetup& setup, const AlignedRectangles& rects, FillCounts& counts,
+                            double& max_point_sum, double& reciprocity_error) {
+  const int n = setup.n;
+  const FillOptions& options = setup.options;
+  const int bands = (n + kMirrorBand - 1) / kMirrorBand;
+  auto band_begin = [&](int b) { return b * kMirrorBand; };
+  auto band_rows = [&](int b) { return std::min(n, (b + 1) * kMirrorBand) - b * kMirrorBand; };
+  std::vector<double> areas(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) areas[size_t(i)] = setup.mesh.patches[i].area;
+  // held[K * bands + J], J > K: F_kj for k in band K, j in band J, stored at [(j - J0) rows(K) +
+  // (k - K0)], so that a row j of band J reads its column k contiguously.
+  std::vector<std::vector<double>> held(size_t(bands) * size_t(bands));
+  std::vector<double> band(size_t(kMirrorBand) * size_t(n));
+  bool stopped = false;
+  for (int b = 0; b < bands && !stopped; ++b) {
+    const int b0 = band_begin(b), rows = band_rows(b);
+    std::fill(band.begin(), band.begin() + ptrdiff_t(rows) * n, 0.0);
+#pragma omp parallel for schedule(dynamic, 1) reduction(merge : counts)
+    for (int r = 0; r < rows; ++r) {
+      RowFill fill(setup, b0 + r, nullptr, nullptr, nullptr, band.data() + size_t(r) * n, counts);
+      fill.fill_pairs();
+    }
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int J = b + 1; J < bands; ++J) {
+      const int j0 = band_begin(J), cols = band_rows(J);
+      std::vector<double>& block = held[size_t(b) * bands + J];
+      block.resize(size_t(cols) * rows);
+      for (int r = 0; r < rows; ++r)
+        for (int c = 0; c < cols; ++c) block[size_t(c) * rows + r] = band[size_t(r) * n + size_t(j0 + c)];
+    }
+    std::atomic<bool> stop{false};
+#pragma omp parallel for schedule(dynamic, 1) reduction(max : max_point_sum, reciprocity_error)
+    for (int r = 0; r < rows; ++r) {
+      if (stop) continue;
+      const int i = b0 + r;
+      const double ai = areas[size_t(i)];
+      double* row = band.data() + size_t(r) * n;
+      // F_ik, k < i, from F_ki: mirrored where the pair has a closed form, else compared.
+      auto lower = [&](int k, double f_ki) {
+        const double ak = areas[size_t(k)];
+        if (rects.eligible(i, k)) row[k] = f_ki * ak / ai;
+        reciprocity_error = std::max(reciprocity_error, std::abs(ai * row[k] - ak * f_ki) / std::min(ai, ak));
+      };
+      for (int K = 0; K < b; ++K) {
+        const int k0 = band_begin(K), krows = band_rows(K);
+        const double* column = held[size_t(K) * bands + b].data() + size_t(r) * krows;
+        for (int c = 0; c < krows; ++c) lower(k0 + c, column[c]);
+      }
+      for (int k = b0; k < i; ++k) lower(k, band[size_t(k - b0) * n + size_t(i)]);
+      double sum = 0.0;  // without visibility every point's sum is its row's sum
+      for (int j = 0; j < n; ++j) sum += row[j];
+      max_point_sum = std::max(max_point_sum, sum);
+      if (!options.row_sink(i, row)) stop = true;
+    }
+    stopped = stop;
+    for (int K = 0; K < b; ++K) std::vector<double>().swap(held[size_t(K) * bands + b]);
+    if (options.progress) options.progress(double(b + 1) / bands);
+  }
+}
+
 }  // namespace
 
-#pragma omp declare reduction(merge:FillCounts : omp_out.merge(omp_in)) initializer(omp_priv = FillCounts())
+double streamed_mirror_peak_bytes(int n) {
+  const double entries = 0.25 * double(n) * double(n) + 2.0 * kMirrorBand * double(n);
+  return 8.0 * entries;
+}
 
 FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options, FillStats& stats) {
   const int n = mesh.size();
@@ -454,12 +535,17 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
   // other entry follows by reciprocity (dense storage: filled in place after the loop).
   // (Not for a subset of the rows: the mirrored entries would come from rows not filled.)
   const bool mirror = rects && !vis && F.layout() == MatrixLayout::Dense && !options.rows;
+  // Streamed rows mirrored in bands (fill_streamed_mirrored), where the blocks it holds fit.
+  const bool mirror_streamed =
+      sink && rects && !vis && !options.rows && streamed_mirror_peak_bytes(n) <= options.streamed_mirror_bytes;
   double max_point_sum = 0.0;
   // The facing test per group of coplanar sources, so most pairs skip facing_away (facing.h).
   const FacingGroups facing_runs(mesh, tol);
-  const bool prefetch = mesh.prefetch_pays() && !mirror;  // (mirrored rows read no patch records)
-  const FillSetup setup{mesh,     options,     n,      tol,      vis,     rays_mode,
-                        per_pair, rects.get(), mirror, prefetch, sources, facing_runs};
+  // (Mirrored rows read no patch records.)
+  const bool prefetch = mesh.prefetch_pays() && !mirror && !mirror_streamed;
+  const FillSetup setup{
+      mesh,     options, n,          tol, vis, rays_mode, per_pair, rects.get(), mirror || mirror_streamed,
+      prefetch, sources, facing_runs};
 
   // Per thread, with visibility: the hierarchical shaft culler, visibility from one point (the
   // one-point rules, see RowFill) and, in per-pair mode with exact visibility, the occluded pairs'
@@ -471,7 +557,12 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
   const bool integrate_occluded = vis && per_pair && !rays_mode && options.occluded_tolerance > 0.0;
   double max_row_error = 0.0, max_ray_error = 0.0;
   std::atomic<bool> stopped{false};
-  const int row_count = options.rows ? static_cast<int>(options.rows->size()) : n;
+  double streamed_reciprocity = -1.0;
+  if (mirror_streamed) {
+    streamed_reciprocity = 0.0;
+    fill_streamed_mirrored(setup, *rects, counts, max_point_sum, streamed_reciprocity);
+  }
+  const int row_count = mirror_streamed ? 0 : options.rows ? static_cast<int>(options.rows->size()) : n;
 
 #pragma omp parallel for schedule(dynamic, 4) reduction(merge     \
                                                         : counts) \
@@ -531,6 +622,8 @@ FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options,
   stats.pairs_blocked_whole += counts.blocked_whole;
   stats.max_row_error_estimate = std::max(stats.max_row_error_estimate, max_row_error);
   stats.max_row_ray_error = std::max(stats.max_row_ray_error, max_ray_error);
+  stats.mirrored = mirror || mirror_streamed;
+  stats.streamed_reciprocity_error = streamed_reciprocity;
   return F;
 }
 

@@ -59,6 +59,12 @@ struct FillOptions {
   // hold (viewfactors --format sparse). The sink must not throw; it returns false to stop the
   // fill (the rows not started yet are skipped: a failed write ends a long run early).
   std::function<bool(int, const double*)> row_sink;
+  // With row_sink, for a scene that needs no visibility and has closed forms (tolerance > 0): the
+  // bytes the fill may hold so that each closed form is computed once per pair, as in a stored
+  // fill, instead of once per entry. The rows then reach row_sink in bands, band after band, and
+  // the fill holds the closed forms of the bands not yet written: at most
+  // streamed_mirror_peak_bytes(n). 0 (or less than that peak): every entry computed in its row.
+  double streamed_mirror_bytes = 0.0;
   // Optional: only these rows (receiver patches, each once) are filled, in this order as far as
   // the threads allow; the others stay zero (a stored matrix) or never reach row_sink. What one
   // rank of an MPI run fills (distributed/row_partition.h). Null: every row.
@@ -91,6 +97,12 @@ struct FillStats {
   double max_row_error_estimate = 0.0;      // max over rows of the occluded pairs' estimated error
   double max_row_ray_error = 0.0;           // ray mode: max over rows of the estimated standard error of
                                             // the row sum from ray sampling (visibility.h RaySampling)
+  bool mirrored = false;                    // closed forms computed once per pair, the other entry by reciprocity
+                                            // (stored rows, or rows streamed in bands: streamed_mirror_bytes)
+  // Rows streamed in bands, which hold both triangles for a while: max over pairs of
+  // |A_i F_ij − A_j F_ji| / min(A_i, A_j) with the patch areas, as check_form_factors gives for a
+  // stored matrix. Negative: not checked (stored, or rows streamed one at a time).
+  double streamed_reciprocity_error = -1.0;
 };
 
 // The invariants of a filled matrix (checked in tests and reported in the summary).
@@ -128,6 +140,10 @@ inline bool point_facing_away(const PatchMesh& mesh, const Vec3& x, const Vec3& 
 // Rows are computed into a per-thread dense buffer and stored with FormFactors::set_row (or handed
 // to options.row_sink), so the matrix never exists in a larger layout than the one asked for.
 FormFactors fill_form_factors(const PatchMesh& mesh, const FillOptions& options, FillStats& stats);
+
+// The most a streamed, mirrored fill of n patches holds (FillOptions::streamed_mirror_bytes): the
+// closed forms of the bands not yet written (at most n²/4 entries) and the band in flight.
+double streamed_mirror_peak_bytes(int n);
 
 // Every patch of `mesh` as one SIMD batch of source polygons (kernels/lambert_batch.h).
 PolygonBatch patch_batch(const PatchMesh& mesh);

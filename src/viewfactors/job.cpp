@@ -410,6 +410,11 @@ ViewFactorJobResult run_view_factor_job(const ViewFactorJob& job) {
   }
   if (r.streamed) {
     res.sparse = streamed->finish(res.checks);
+    // Rows mirrored in bands were checked for reciprocity while both triangles were held.
+    if (r.fill.streamed_reciprocity_error >= 0.0 && agg.size() == r.mesh.size()) {
+      res.checks.reciprocity_error = r.fill.streamed_reciprocity_error;
+      res.checks.reciprocity_checked = true;
+    }
     finish_points(res, points, r, agg, points_out);
     commit_all(*main_out, points_out);
     fill_result(res, scene, r, agg, t0);

@@ -88,8 +88,9 @@ struct ViewFactorJobResult {
                                          // --format view3d); empty otherwise
   EnforcementReport enforcement_report;  // all zero when enforcement is None
   SparseWriteStats sparse;               // drop statistics; all zero unless format is Sparse
-  // The rows went to the file as they were filled (F is then empty and checks.reciprocity_checked
-  // false), and why or why not (PatchViewFactors::stream_reason).
+  // The rows went to the file as they were filled (F is then empty, and checks.reciprocity_checked
+  // false unless the fill mirrored its rows in bands: FillStats::streamed_reciprocity_error), and
+  // why or why not (PatchViewFactors::stream_reason).
   bool streamed = false;
   std::string stream_reason;
   // A .vs3 input's C line: per key given, what became of it ("eps=1e-05: superseded by

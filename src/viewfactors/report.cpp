@@ -65,6 +65,7 @@ nlohmann::json viewfactor_summary_json(const ViewFactorJobResult& r) {
                 {"per_pair_gauss", r.fill.pairs_gauss},
                 {"per_pair_adaptive", r.fill.pairs_adaptive},
                 {"exact_rectangles", r.fill.pairs_exact_rectangles},
+                {"mirrored_by_reciprocity", r.fill.mirrored},
                 {"fixed_rule", r.fill.pairs_fixed_rule},
                 {"fixed_rule_order", job.fill.quadrature},
                 {"visibility_tested", r.fill.pairs_tested},

@@ -62,9 +62,12 @@ StorageChoice stored_choice(const MemoryEstimate& estimate, double patches, doub
                         estimate.per_patch_bytes * patches + stored_output_bytes(surfaces, opt), opt.max_memory_bytes);
 }
 
-// The streamed run's estimate: the per-patch arrays, the rows in flight and the point rows.
-void check_streamed(const MemoryEstimate& estimate, double patches, double surfaces, const ViewFactorOptions& opt,
-                    ViewFactorMemory& m) {
+// The streamed run's estimate: the per-patch arrays, the rows in flight and the point rows, and
+// with `mirror_bytes` the blocks of a fill mirrored in bands (formfactors.h); the limit it is
+// checked against. Throws nothing (check_streamed does).
+ViewFactorMemory streamed_memory(const MemoryEstimate& estimate, double patches, double surfaces,
+                                 const ViewFactorOptions& opt, double mirror_bytes = 0.0) {
+  ViewFactorMemory m;
   const double threads = opt.threads > 0 ? opt.threads : omp_get_max_threads();
   m.patches = estimate;
   m.surfaces = static_cast<int>(std::min(surfaces, double(std::numeric_limits<int>::max())));
@@ -72,13 +75,20 @@ void check_streamed(const MemoryEstimate& estimate, double patches, double surfa
   m.storage = "streamed";
   m.matrix_bytes = 0.0;
   m.estimated_bytes = estimate.per_patch_bytes * patches + threads * kStreamedRowBytes * patches + m.output_bytes +
-                      opt.held_bytes_per_entry * opt.held_row_share * patches * patches;
+                      opt.held_bytes_per_entry * opt.held_row_share * patches * patches + mirror_bytes;
   // The ranks of an MPI run on one machine share its available memory; --max-memory is per rank.
   const int sharing = std::max(opt.ranks_per_machine, 1);
   m.limit_bytes = opt.max_memory_bytes > 0 ? opt.max_memory_bytes : available_memory_bytes() / sharing;
   m.limit_source = opt.max_memory_bytes > 0 ? "--max-memory"
                    : sharing > 1            ? "MemAvailable shared by " + std::to_string(sharing) + " ranks"
                                             : "MemAvailable";
+  return m;
+}
+
+// The streamed run's estimate (streamed_memory) into m; BadInput when it exceeds the limit.
+void check_streamed(const MemoryEstimate& estimate, double patches, double surfaces, const ViewFactorOptions& opt,
+                    ViewFactorMemory& m, double mirror_bytes = 0.0) {
+  m = streamed_memory(estimate, patches, surfaces, opt, mirror_bytes);
   if (m.limit_bytes > 0 && m.estimated_bytes > m.limit_bytes)
     throw_bad_input("view factors need an estimated " + format_bytes(m.estimated_bytes) + " for " +
                     format_patch_count(patches) + " patches (rows streamed, " + format_patch_count(surfaces) +
@@ -148,16 +158,29 @@ PatchViewFactors compute_view_factors(const Scene& scene, const ViewFactorOption
   if (opt.rows_for && !why_not.empty()) throw_bad_input(kRanksStream + why_not);
   if (opt.stream == RowStreaming::Yes && !why_not.empty()) throw_bad_input("--stream yes: " + why_not);
   const StorageChoice storage = stored_choice(estimate, r.mesh.size(), agg.size(), opt);
+  // Visibility: the same decision as the solve's (visibility/choice.h).
+  const VisibilityChoice visibility = choose_visibility(scene, opt.visibility, opt.rays);
+  // Where nothing can block and pairs of rectangles have closed forms, streamed rows can mirror
+  // them in bands (each computed once per pair, as in a stored fill) if those bands' blocks fit:
+  // then streaming does less work than storing (no pass over a stored matrix, the file written
+  // while the rows are filled) in less memory, so auto streams.
+  const double mirror_bytes = streamed_mirror_peak_bytes(r.mesh.size());
+  const bool mirror_fits = [&] {
+    if (visibility.mode != VisibilityMode::None || opt.rows_for || !(opt.accuracy > 0.0)) return false;
+    const ViewFactorMemory m = streamed_memory(estimate, r.mesh.size(), agg.size(), opt, mirror_bytes);
+    return m.limit_bytes > 0.0 && m.estimated_bytes <= m.limit_bytes;
+  }();
   stream = stream && why_not.empty();
-  if (opt.stream == RowStreaming::Auto && why_not.empty()) stream = !storage.fits;
+  if (opt.stream == RowStreaming::Auto && why_not.empty()) stream = !storage.fits || mirror_fits;
   if (opt.rows_for) stream = true;
   if (stream) {
-    check_streamed(estimate, r.mesh.size(), agg.size(), opt, r.memory);
-    r.stream_reason = opt.rows_for ? "the rows are filled on several MPI ranks"
-                      : opt.stream == RowStreaming::Yes
-                          ? "requested (--stream yes)"
-                          : "auto: the stored matrix and its output copy need an estimated " +
-                                format_bytes(storage.estimated_bytes) + ", over the limit";
+    check_streamed(estimate, r.mesh.size(), agg.size(), opt, r.memory, mirror_fits ? mirror_bytes : 0.0);
+    r.stream_reason = opt.rows_for                      ? "the rows are filled on several MPI ranks"
+                      : opt.stream == RowStreaming::Yes ? "requested (--stream yes)"
+                      : !storage.fits ? "auto: the stored matrix and its output copy need an estimated " +
+                                            format_bytes(storage.estimated_bytes) + ", over the limit"
+                                      : "auto: nothing blocks and the closed forms mirror in bands, so rows written "
+                                        "as they are filled take less time and memory than a stored matrix";
     r.memory.storage_reason = r.stream_reason;
   } else {
     check_stored(estimate, r.mesh.size(), agg.size(), opt, r.memory);
@@ -166,8 +189,6 @@ PatchViewFactors compute_view_factors(const Scene& scene, const ViewFactorOption
                                                      : "auto: the matrix fits the memory limit, stored";
   }
   r.streamed = stream;
-  // Visibility: the same decision as the solve's (visibility/choice.h).
-  const VisibilityChoice visibility = choose_visibility(scene, opt.visibility, opt.rays);
   r.visibility_mode = visibility.name();
   r.visibility_reason = visibility.reason;
   r.visibility = make_visibility(scene, visibility, ray_sampling_for(opt.accuracy));
@@ -182,6 +203,7 @@ PatchViewFactors compute_view_factors(const Scene& scene, const ViewFactorOption
   fill.layout = storage.layout;
   fill.precision = storage.precision;
   if (stream) fill.row_sink = opt.row_sink_for(r.mesh, agg);
+  if (stream && mirror_fits) fill.streamed_mirror_bytes = mirror_bytes;
   std::vector<int> rows;
   if (opt.rows_for) {
     rows = opt.rows_for(r.mesh);

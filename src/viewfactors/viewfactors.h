@@ -84,9 +84,12 @@ struct ViewFactorOptions {
   // order; false stops the fill) instead of being stored, so that memory follows the rows in
   // flight, not N². Possible when row_sink_for is given, the level is face or patch with one
   // patch per output surface (a patch row is an output row, of_patch a permutation), and neither
-  // enforcement nor exchange factors need the whole matrix. Auto: stream when possible and the
-  // stored matrix with its output copy would exceed the memory limit; Yes: stream (BadInput when
-  // not possible); No: never (the memory check refuses what does not fit).
+  // enforcement nor exchange factors need the whole matrix. Auto: stream when possible and either
+  // the stored matrix with its output copy would exceed the memory limit, or nothing blocks and
+  // the closed forms can be mirrored in bands within the limit (FillOptions::
+  // streamed_mirror_bytes: less work and memory than storing); Yes: stream (BadInput when not
+  // possible), mirrored in bands where that fits; No: never (the memory check refuses what does
+  // not fit).
   RowStreaming stream = RowStreaming::Auto;
   // Called once streaming is decided, before the fill, with the patches and the output surfaces;
   // returns the sink of the patch rows (row i of the patch matrix, N entries in patch order).
@@ -120,7 +123,9 @@ struct ViewFactorMemory {
   std::string storage_reason;  // "requested (--matrix sparse)" or "auto: ..."
   // Streamed: matrix_bytes and output_bytes are 0, and estimated_bytes is the per-patch arrays,
   // the rows in flight (threads × kStreamedRowBytes × N) and the rows held
-  // (held_bytes_per_entry × held_row_share × N², ViewFactorOptions).
+  // (held_bytes_per_entry × held_row_share × N², ViewFactorOptions), and, where a scene without
+  // visibility mirrors its closed forms while streaming, the blocks it holds for that
+  // (formfactors.h streamed_mirror_peak_bytes; used only where it fits the limit).
   double matrix_bytes = 0.0, output_bytes = 0.0, estimated_bytes = 0.0;
   double limit_bytes = 0.0;  // the limit checked against (0 = unknown: not checked)
   std::string limit_source;  // "--max-memory" or "MemAvailable"
