@@ -9,9 +9,16 @@ output points differ (patch corners against leaf corners), so the reference's pe
 are interpolated at each point of OTHER: linearly over the triangles of a fan of the reference
 cell, of the same input face (cell array `face`), that contains the point. Prints how many
 points were compared and the difference of the array (largest over the channels) relative to
-the reference's mean value over its points and channels (near, but not the same as, the
-area-weighted mean radiosity B̄ that --error refers to, docs/theory.md "Hierarchical
-radiosity"): RMS, 99th percentile and max.
+the reference's mean value over its points and channels: RMS, 99th percentile and max.
+
+Points favour the regions OTHER refined, so the same difference is also integrated over the
+surface (`area_*` in --json): OTHER's per-vertex field, linear over the triangles of a fan of
+each of its cells, is compared with the reference's at the three edge midpoints of each triangle
+(weights of a third of its area each: the edge-midpoint rule, exact for quadratics on a
+triangle; Strang & Fix, "An Analysis of the Finite Element Method", 1973, chapter 4). Relative to the reference's
+area-weighted mean B̄ (what `--error` refers to, docs/theory.md "Hierarchical radiosity"): the
+area-weighted RMS of the difference, and its area-weighted mean (the bias: how much light OTHER
+gains or loses overall, the difference of the channels averaged).
 """
 
 import argparse
@@ -80,6 +87,7 @@ class Interpolator:
     """The reference's per-vertex array at any point of one of its input faces."""
 
     def __init__(self, vtu, array, cell_size):
+        self.vtu = vtu
         self.points = vtu["Points"]["Points"][1]
         self.comps, self.values = vtu["PointData"][array]
         faces = vtu["CellData"]["face"][1]
@@ -95,6 +103,21 @@ class Interpolator:
                     for gy in range(self.key(lo[1]), self.key(hi[1]) + 1):
                         for gz in range(self.key(lo[2]), self.key(hi[2]) + 1):
                             self.grid[(face, gx, gy, gz)].append(tri)
+
+    def mean(self):
+        """The area-weighted mean of the array over the reference's surface (all channels)."""
+        total_area, total = 0.0, 0.0
+        for cell in cells_of(self.vtu):
+            for k in range(1, len(cell) - 1):
+                tri = (cell[0], cell[k], cell[k + 1])
+                a, b, c = (self.point(i) for i in tri)
+                n = cross(sub(b, a), sub(c, a))
+                area = 0.5 * math.sqrt(dot(n, n))
+                # A linear field's mean over a triangle is the mean of its corners.
+                total += area * sum(self.values[self.comps * i + ch] for i in tri for ch in range(self.comps)) / (
+                    3 * self.comps)
+                total_area += area
+        return total / total_area
 
     def key(self, x):
         return math.floor(x / self.size)
@@ -155,15 +178,42 @@ def main():
         diffs.append(max(abs(ovals[comps * i + ch] - r[ch]) for ch in range(comps)) / scale)
     if not diffs:
         sys.exit("no point of OTHER lies on a reference cell of its face")
+    # Over the surface: OTHER's triangles, sampled at their edge midpoints.
+    area_mean = interpolate.mean()
+    weight, squares, bias, area_missed = 0.0, 0.0, 0.0, 0
+    for face, cell in zip(oth["CellData"]["face"][1], cells_of(oth)):
+        for k in range(1, len(cell) - 1):
+            tri = (cell[0], cell[k], cell[k + 1])
+            corners = [opts[3 * i:3 * i + 3] for i in tri]
+            n = cross(sub(corners[1], corners[0]), sub(corners[2], corners[0]))
+            third = math.sqrt(dot(n, n)) / 6.0
+            for u, v in ((0, 1), (1, 2), (2, 0)):
+                p = tuple(0.5 * (corners[u][d] + corners[v][d]) for d in range(3))
+                r = interpolate.at(face, p)
+                if r is None:
+                    area_missed += 1
+                    continue
+                o = [0.5 * (ovals[comps * tri[u] + ch] + ovals[comps * tri[v] + ch]) for ch in range(comps)]
+                squares += third * max((o[ch] - r[ch]) ** 2 for ch in range(comps))
+                bias += third * sum(o[ch] - r[ch] for ch in range(comps)) / comps
+                weight += third
+    if weight == 0.0:
+        sys.exit("no triangle of OTHER lies on a reference cell of its face")
+    area_rms = math.sqrt(squares / weight) / area_mean
+    area_bias = bias / weight / area_mean
     rms = math.sqrt(sum(d * d for d in diffs) / len(diffs))
     p99 = sorted(diffs)[int(0.99 * (len(diffs) - 1))]
     result = {"compared_points": len(diffs), "points_off_the_reference": missed, "rms_relative": rms,
-              "p99_relative": p99, "max_relative": max(diffs), "reference_mean": scale}
+              "p99_relative": p99, "max_relative": max(diffs), "reference_mean": scale,
+              "area_rms_relative": area_rms, "area_bias_relative": area_bias, "reference_area_mean": area_mean,
+              "area_samples_off_the_reference": area_missed}
     if args.json:
         print(json.dumps(result))
     else:
         print(f"{len(diffs)} points compared ({missed} not on the reference's cells): {args.array} differs by "
               f"RMS {rms:.3g}, 99th percentile {p99:.3g}, max {max(diffs):.3g} of the reference's mean value {scale:.6g}")
+        print(f"over the surface: RMS {area_rms:.3g}, bias {area_bias:+.3g} of the reference's area-weighted mean "
+              f"{area_mean:.6g} ({area_missed} samples not on the reference's cells)")
 
 
 if __name__ == "__main__":

@@ -9,7 +9,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libxsimd-dev libfmt-dev
   libopenmpi-dev openmpi-bin petsc-dev
-  gnuplot-nox
+  gnuplot-nox python3
   clang libclang-rt-14-dev libomp-14-dev clang-format
 )
 missing=()
