@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <charconv>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 
@@ -44,6 +45,10 @@ void put_digits(char* p, uint64_t s, int n) {
 }  // namespace
 
 char* write_shortest(char* p, double v) {
+  if (v == 0.0 && !std::signbit(v)) {  // a sixth of a closed room's view factors (faces sharing a plane)
+    *p = '0';
+    return p + 1;
+  }
   if (!(v > 0.0 && v < 1e15)) return std::to_chars(p, p + kShortestDecimalMaxChars, v).ptr;
   // v = s · 10^e with s the shortest round-trip significand, n digits (at most 17).
   const auto decimal = fmt::detail::dragonbox::to_decimal(v);

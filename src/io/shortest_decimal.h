@@ -11,10 +11,11 @@
 // library, libfmt-dev, `fmt::detail::dragonbox::to_decimal`), which is as exact as the Ryu
 // algorithm libstdc++'s to_chars uses (Adams, "Ryū: fast float-to-string conversion", PLDI
 // 2018): both give the shortest digits that round-trip, the closest to the value when several
-// do. The digits are then placed two at a time. Values outside (0, 1e15) (zero, negatives,
-// infinities, NaN, and large integers, which to_chars prints exactly rather than shortest) go
-// to std::to_chars itself. tests/test_shortest_decimal.cpp compares the two on millions of
-// values across the whole range.
+// do. The digits are then placed two at a time. +0 is written as "0" at once (a closed room's
+// faces that share a plane see each other with factor 0). Other values outside (0, 1e15) (-0,
+// negatives, infinities, NaN, and large integers, which to_chars prints exactly rather than
+// shortest) go to std::to_chars itself. tests/test_io_shortest_decimal.cpp compares the two on
+// millions of values across the whole range.
 #pragma once
 
 namespace photometria {
