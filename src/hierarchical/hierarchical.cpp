@@ -26,7 +26,9 @@ struct Element {
   Vec3 centroid = Vec3::Zero();
   Rgb emission = Rgb::Zero(), reflectance = Rgb::Zero(), direct = Rgb::Zero();
   Rgb radiosity = Rgb::Zero();
-  double spread = 0.0;  // max − min of the children's radiosity (largest channel); 0 on leaves
+  // How much the radiosity varies over the element (largest channel): max − min of the
+  // children's radiosity, or on a leaf the estimate from the links it gathers (sweep()).
+  double spread = 0.0;
   bool leaf() const { return first_child < 0; }
 };
 
@@ -275,7 +277,11 @@ struct HierarchicalRadiosity::Impl {
     const Element& ep = elements_[size_t(p)];
     const Element& eq = elements_[size_t(l.source)];
     const double rho = largest(ep.reflectance);
-    const double e_receiver = rho * largest(eq.radiosity) * l.error;
+    // What q sends varies over p; the output gathers it at each point with the exact kernel, so
+    // that error reaches the output only through p's radiosity as a source (its spread, counted
+    // by e_source of the links from p), and through the link's visible share where the gather
+    // falls back on it (more occluders than it clips).
+    const double e_receiver = l.occluded ? rho * largest(eq.radiosity) * l.error : 0.0;
     const double e_source = rho * l.factor * eq.spread;
     if (std::max(e_receiver, e_source) <= threshold * std::max(double(l.factor), kLinkShareFloor)) return 0;
     const bool receiver_first = e_receiver >= e_source;
@@ -346,23 +352,32 @@ struct HierarchicalRadiosity::Impl {
     return split_count;
   }
 
-  // Gathers, pushes and pulls the subtree of e with the irradiance gathered above it; returns
-  // its new radiosity. Records the largest change at a leaf.
-  Rgb sweep(int e, const Rgb& above, double& change) {
+  // Gathers, pushes and pulls the subtree of e with the irradiance gathered above it (and the
+  // range over e of what that irradiance's links send, `above_range`); returns its new
+  // radiosity. Records the largest change at a leaf.
+  Rgb sweep(int e, const Rgb& above, double above_range, double& change) {
     Element& el = elements_[size_t(e)];
     Rgb h = above;
-    for (const Link& l : links_[size_t(e)]) h += double(l.factor) * elements_[size_t(l.source)].radiosity;
+    double range = above_range;
+    for (const Link& l : links_[size_t(e)]) {
+      const Rgb& bq = elements_[size_t(l.source)].radiosity;
+      h += double(l.factor) * bq;
+      range += 2.0 * double(l.error) * largest(bq);  // the link's kernel range over e (link())
+    }
     if (el.leaf()) {
       const Rgb b = el.emission + el.reflectance * (h + el.direct);
       change = std::max(change, (b - el.radiosity).abs().maxCoeff());
       el.radiosity = b;
+      // One value stands for a radiosity that varies by up to ρ times the range of the
+      // irradiance; the links leaving this leaf are refined (e_source) where that matters.
+      el.spread = largest(el.reflectance) * range;
       return b;
     }
     Rgb b = Rgb::Zero();
     double lo = 1e300, hi = -1e300;
     const int first = el.first_child;
     for (int c = first; c < first + 4; ++c) {
-      const Rgb bc = sweep(c, h, change);
+      const Rgb bc = sweep(c, h, range, change);
       b += elements_[size_t(c)].area * bc;
       lo = std::min(lo, largest(bc));
       hi = std::max(hi, largest(bc));
@@ -376,7 +391,7 @@ struct HierarchicalRadiosity::Impl {
   void solve() {
     for (int it = 0; it < opt_.max_iterations; ++it) {
       double change = 0.0, top = 0.0;
-      for (int r = 0; r < roots_.size(); ++r) sweep(r, Rgb::Zero(), change);
+      for (int r = 0; r < roots_.size(); ++r) sweep(r, Rgb::Zero(), 0.0, change);
       for (int r = 0; r < roots_.size(); ++r) top = std::max(top, largest(elements_[size_t(r)].radiosity));
       ++stats_.sweeps;
       stats_.residual = top > 0.0 ? change / top : 0.0;

@@ -10,13 +10,18 @@
 //    exact point-to-polygon kernel, the receiver integral adaptive near shared edges), the
 //    visible share from p's 2 × 2 Gauss points x_k (visibility/: exact clipping or rays).
 //  - Refinement with the radiosity it carries ("BF refinement": Hanrahan et al. 1991; Cohen &
-//    Wallace, "Radiosity and Realistic Image Synthesis", 1993, ch. 7): a link's errors are
-//      e_receiver = ρ_p B_q ½ (max − min of F_vis(dA_x -> q) over p's Gauss points and centroid)
-//      e_source   = ρ_p F_pq (max − min of the radiosity of q's children)
+//    Wallace, "Radiosity and Realistic Image Synthesis", 1993, ch. 7), for an output gathered at
+//    every point (Baum et al. 1989, below), with ΔF_pq the range of F_vis(dA_x -> q) over p's
+//    Gauss points and centroid:
+//      e_source   = ρ_p F_pq S_q   (S_q: how much q's radiosity varies over q; the range of its
+//                                   children's, or on a leaf ρ_q Σ ΔF B over the links it gathers)
+//      e_receiver = ρ_p B_q ½ ΔF_pq, on links with an occluder in their shaft only (elsewhere the
+//                                   gather's exact kernel makes it no error of the output)
 //    A link is refined while max(e_receiver, e_source) > ε B̄ max(F_pq, 0.1) (B̄ the scene's
 //    area-weighted mean radiosity; each link's share of the receiver's error budget grows with
 //    what it carries, so a leaf's many links do not add up past ε), the larger term choosing the
-//    element to split, down to the smallest element allowed.
+//    element to split, down to the smallest element allowed (docs/theory.md "Hierarchical
+//    radiosity").
 //  - Solve by gathering: H_p = Σ_{links p<-q} F_pq B_q at every level; push (a child inherits
 //    its ancestors' gathered irradiance), at the leaves B = E + ρ (H + H_direct), pull (an
 //    element's B is the area-weighted mean of its children's). Sweeps over the roots in order
