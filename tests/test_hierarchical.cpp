@@ -100,6 +100,36 @@ TEST(Hierarchical, FurnaceCubeIsWithinTheRequestedError) {
   }
 }
 
+// A white floor under a black emitting ceiling (unit squares at distance 1, nothing else): what
+// the ceiling sends varies over the floor, but the output gathers it with the exact kernel at
+// every point, and the floor's light reaches nothing that reflects. So no link needs refining:
+// two leaves, and each floor corner's radiosity is ρ F exactly, F the factor from a plane
+// element to a parallel rectangle with the normal through a corner (Howell, "A Catalog of
+// Radiation Heat Transfer Configuration Factors", B-3), here with both sides equal to the distance:
+// F = (1/π) (1/√2) atan(1/√2).
+TEST(Hierarchical, AReceiverWhoseLightReachesNoReflectorIsNotRefined) {
+  pm::Scene s = builders::unit_cube(0.5, 0.0);
+  s.faces.resize(2);  // the floor (z = 0, up) and the ceiling (z = 1, down)
+  pm::Material ceiling;
+  ceiling.name = "emitter";
+  ceiling.reflectance = pm::Rgb::Zero();
+  ceiling.emission = pm::Rgb::Constant(1.0);
+  s.materials.push_back(ceiling);
+  s.faces[1].material = 1;
+  const double rho = 0.5, corner = std::atan(1.0 / std::sqrt(2.0)) / (M_PI * std::sqrt(2.0));
+  for (double error : {1e-1, 1e-3}) {
+    const pm::SolveResult r = solve(s, pm::SolveMethod::Hierarchical, error);
+    EXPECT_EQ(r.summary.hierarchical.leaves, 2) << "error " << error;
+    int corners = 0;
+    for (size_t o = 0; o < r.points.size(); ++o)
+      if (r.points[o].position.z() == 0.0) {
+        EXPECT_NEAR(r.point_radiosity(long(o), 0), rho * corner, 1e-13) << "error " << error;
+        ++corners;
+      }
+    EXPECT_EQ(corners, 4);
+  }
+}
+
 TEST(Hierarchical, AgreesWithTheDenseSolveAtSharedPointsAndConverges) {
   const pm::Scene scene = shadowed_cube();
   const pm::SolveResult dense = solve(scene, pm::SolveMethod::Dense, 0.0, 1.0 / 16);
