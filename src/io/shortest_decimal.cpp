@@ -45,7 +45,7 @@ void put_digits(char* p, uint64_t s, int n) {
 }  // namespace
 
 char* write_shortest(char* p, double v) {
-  if (v == 0.0 && !std::signbit(v)) {  // a sixth of a closed room's view factors (faces sharing a plane)
+  if (v == 0.0 && !std::signbit(v)) {  // a sixth of the meshed cube's view factors (faces sharing a plane)
     *p = '0';
     return p + 1;
   }
