@@ -8,6 +8,7 @@
     python3 meshes/make_meshes.py --street-canyon H OUT.vs3
     python3 meshes/make_meshes.py --meshed-cube N OUT.vs3
     python3 meshes/make_meshes.py --scanned-objects K RINGS OUT.obj
+    python3 meshes/make_meshes.py --furnished-room DIR
 
 The second form writes room_with_table as a View3D input instead (nothing else): every quad of
 the room, the light and the table tessellated into quads of edge at most H metres, each quad its
@@ -28,7 +29,9 @@ with each wall cut into N x N quads, each its own surface (N = 32: 6,144; the ou
 benchmark of `viewfactors`). `--scanned-objects` writes the Cornell box with K x K bumpy spheres
 of 2 ceil(1.2 RINGS) (RINGS - 1) triangles each hung above the boxes (the hierarchical method's
 scaling benchmark: K = 5, RINGS = 20 give 22,800 triangles; K = 10, RINGS = 20, 91,200; K = 10,
-RINGS = 64, 970,200).
+RINGS = 64, 970,200). `--furnished-room DIR` writes DIR/furnished_room.obj and .mtl: the furnished
+room of `photometria bench` (a room, a light, a table and four chairs, 181 quads; the bench's
+z up becomes y up), for comparing `solve` methods on the bench's scene.
 
 Conventions of every generated file: metres, y up (z up in the street canyons), every face
 wound counter-clockwise seen from its front (the side that emits and receives light), so its
@@ -133,13 +136,13 @@ class Obj:
     def faces(self, group, material, polygons):
         self.blocks.append((group, material, [[self.vertex(p) for p in poly] for poly in polygons]))
 
-    def write(self):
+    def write(self, folder=HERE):
         num = lambda x: f"{x:g}"
-        with open(os.path.join(HERE, self.name + ".mtl"), "w") as f:
+        with open(os.path.join(folder, self.name + ".mtl"), "w") as f:
             f.write(HEADER + f"# Materials of {self.name}.obj: Kd = diffuse reflectance, Ke = emitted exitance (W/m^2).\n")
             for name, kd, ke in self.materials:
                 f.write(f"\nnewmtl {name}\nKd {' '.join(map(num, kd))}\nKe {' '.join(map(num, ke))}\n")
-        with open(os.path.join(HERE, self.name + ".obj"), "w") as f:
+        with open(os.path.join(folder, self.name + ".obj"), "w") as f:
             f.write(HEADER + "".join(f"# {line}\n" for line in self.comment.splitlines()))
             f.write("# Units: metres, y up. Faces are counter-clockwise seen from their front.\n\n")
             f.write(f"mtllib {self.name}.mtl\n\n")
@@ -162,25 +165,23 @@ def furnace_cube():
     return obj
 
 
-def room_with_table():
+def lit_room(name, comment):
+    """A closed room 4 m (x) by 3 m (z), 2.5 m high (y), with its ceiling light and its materials."""
     W, H, D = 4.0, 2.5, 3.0  # x width, y height, z depth
-    obj = Obj("room_with_table", f"Closed room {W:g} m (x) by {D:g} m (z), {H:g} m high (y), facing inward,\n"
-                                 "a 0.8 m square ceiling light 1 mm below the ceiling facing down, and a table\n"
-                                 "(1.2 x 0.8 m top, 0.04 m thick, top at 0.75 m, four 0.05 m legs) made of\n"
-                                 "closed boxes facing outward.")
+    obj = Obj(name, comment)
     obj.material("wall", (0.7, 0.7, 0.7))
     obj.material("floor", (0.5, 0.5, 0.5))
     obj.material("light", (0.8, 0.8, 0.8), (10.0, 10.0, 10.0))
     obj.material("table", (0.5, 0.5, 0.5))
     room = box_quads((0, 0, 0), (W, H, D), inward=True)
-    floor = [q for q in room if all(p[1] == 0 for p in q)]
-    ceiling = [q for q in room if all(p[1] == H for p in q)]
-    walls = [q for q in room if q not in floor and q not in ceiling]
-    obj.faces("floor", "floor", floor)
-    obj.faces("ceiling", "wall", ceiling)
-    obj.faces("walls", "wall", walls)
     cx, cz = W / 2, D / 2
-    obj.faces("light", "light", [rect_y(cx - 0.4, cx + 0.4, cz - 0.4, cz + 0.4, H - 0.001, up=False)])
+    light = rect_y(cx - 0.4, cx + 0.4, cz - 0.4, cz + 0.4, H - 0.001, up=False)
+    return obj, room, light, (W, H, D)
+
+
+def table_quads(cx, cz):
+    """The table centred at (cx, cz): top 1.2 (x) by 0.8 (z) m, 0.04 m thick, its top at 0.75 m;
+    four 0.05 m square legs inset 0.05 m, all closed boxes facing outward."""
     top, thick, leg, inset = 0.75, 0.04, 0.05, 0.05
     table = box_quads((cx - 0.6, top - thick, cz - 0.4), (cx + 0.6, top, cz + 0.4), inward=False)
     for sx in (-1, 1):
@@ -188,7 +189,56 @@ def room_with_table():
             x = cx + sx * (0.6 - inset) - (leg if sx > 0 else 0)
             z = cz + sz * (0.4 - inset) - (leg if sz > 0 else 0)
             table += box_quads((x, 0.0, z), (x + leg, top - thick, z + leg), inward=False)
-    obj.faces("table", "table", table)
+    return table
+
+
+def room_with_table():
+    obj, room, light, (W, H, D) = lit_room(
+        "room_with_table", "Closed room 4 m (x) by 3 m (z), 2.5 m high (y), facing inward,\n"
+                           "a 0.8 m square ceiling light 1 mm below the ceiling facing down, and a table\n"
+                           "(1.2 x 0.8 m top, 0.04 m thick, top at 0.75 m, four 0.05 m legs) made of\n"
+                           "closed boxes facing outward.")
+    floor = [q for q in room if all(p[1] == 0 for p in q)]
+    ceiling = [q for q in room if all(p[1] == H for p in q)]
+    walls = [q for q in room if q not in floor and q not in ceiling]
+    obj.faces("floor", "floor", floor)
+    obj.faces("ceiling", "wall", ceiling)
+    obj.faces("walls", "wall", walls)
+    obj.faces("light", "light", [light])
+    obj.faces("table", "table", table_quads(W / 2, D / 2))
+    return obj
+
+
+def furnished_room():
+    """The bench's furnished room (src/validation/bench.cpp), with y up instead of z."""
+    obj, room, light, (W, H, D) = lit_room(
+        "furnished_room", "The furnished room of `photometria bench` (room edge=...): a closed room 4 m (x)\n"
+                          "by 3 m (z), 2.5 m high (y), facing inward; a 0.8 m square ceiling light 1 mm\n"
+                          "below the ceiling facing down; a table (1.2 x 0.8 m top, 0.04 m thick, top at\n"
+                          "0.75 m, four 0.05 m legs) and four chairs (0.45 m seats, 0.04 m legs, 0.45 m\n"
+                          "backs), every piece a closed box facing outward. 181 quads.")
+    obj.material("chair", (0.4, 0.4, 0.4))
+    floor = [q for q in room if all(p[1] == 0 for p in q)]
+    obj.faces("room", "floor", floor)
+    obj.faces("room", "wall", [q for q in room if q not in floor])
+    obj.faces("light", "light", [light])
+    cx, cz = W / 2, D / 2
+    obj.faces("table", "table", table_quads(cx, cz))
+    box = lambda x0, y0, z0, x1, y1, z1: box_quads((x0, y0, z0), (x1, y1, z1), inward=False)
+    seat, seat_top, seat_thick, chair_leg, back = 0.45, 0.45, 0.04, 0.04, 0.45
+    chairs = []
+    for sz in (-1, 1):
+        for sx in (-1, 1):
+            x0, z0 = cx + 0.3 * sx - seat / 2, cz + 0.6 * sz - seat / 2
+            x1, z1 = x0 + seat, z0 + seat
+            chairs += box(x0, seat_top - seat_thick, z0, x1, seat_top, z1)
+            for lx in (x0, x1 - chair_leg):
+                for lz in (z0, z1 - chair_leg):
+                    chairs += box(lx, 0.0, lz, lx + chair_leg, seat_top - seat_thick, lz + chair_leg)
+            bz0 = z1 - chair_leg if sz > 0 else z0  # the edge away from the table
+            chairs += box(x0, seat_top, bz0, x1, seat_top + back, bz0 + chair_leg)
+    obj.faces("chairs", "chair", chairs)
+    assert sum(len(b[2]) for b in obj.blocks) == 181, "the bench room has 181 faces"
     return obj
 
 
@@ -427,9 +477,17 @@ def main():
     parser.add_argument("--street-canyons", nargs=2, metavar=("H", "OUT"), help="write the street canyons as .vs3")
     parser.add_argument("--meshed-cube", nargs=2, metavar=("N", "OUT"), help="write the unit cube, N x N per wall, as .vs3")
     parser.add_argument("--street-canyon", nargs=2, metavar=("H", "OUT"), help="write one long street canyon as .vs3")
+    parser.add_argument("--furnished-room", metavar="DIR",
+                        help="write the bench's furnished room (181 quads) as DIR/furnished_room.obj and .mtl")
     parser.add_argument("--scanned-objects", nargs=3, metavar=("K", "RINGS", "OUT"),
                         help="write the Cornell box with K x K objects of 2 ceil(1.2 RINGS) (RINGS - 1) triangles each")
     args = parser.parse_args()
+    if args.furnished_room:
+        room = furnished_room()
+        os.makedirs(args.furnished_room, exist_ok=True)
+        room.write(args.furnished_room)
+        print(f"{os.path.join(args.furnished_room, room.name)}.obj: {sum(len(b[2]) for b in room.blocks)} faces")
+        return
     if args.scanned_object:
         write_scanned_object(args.scanned_object)
         return

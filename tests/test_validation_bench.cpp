@@ -17,6 +17,7 @@
 
 #include "geometry/polygon.h"
 #include "patching/patching.h"
+#include "scene/scene.h"
 #include "scratch_dir.h"
 #include "viewfactors/viewfactors.h"
 
@@ -146,6 +147,44 @@ TEST(BenchScenes, RoomSizesGiveTheIssuesPatchCounts) {
     EXPECT_NEAR(mesh.size(), targets[k], 0.1 * targets[k]) << "edge " << edges[k];
     for (const pm::Patch& p : mesh.patches) ASSERT_GT(p.area, 0.0);
   }
+}
+
+// meshes/make_meshes.py --furnished-room writes the bench's room as an OBJ with y up (the bench's
+// (x, y, z) is the file's (x, z, y)), so that `solve` can compare methods on the bench's scene: the
+// same faces, each facing the same way, with the same materials, and the same patches.
+TEST(BenchScenes, FurnishedRoomFileIsTheBenchRoom) {
+  const fs::path dir = test_scratch::fresh_dir("photometria_furnished_");
+  const cli_test::CliRun run = cli_test::run_command(std::string(PHOTOMETRIA_PYTHON) + " " + PHOTOMETRIA_SOURCE_DIR +
+                                                         "/meshes/make_meshes.py --furnished-room " + dir.string(),
+                                                     (dir / "err.txt").string());
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const pm::Scene file = pm::load_scene((dir / "furnished_room.obj").string());
+  const pm::Scene room = pv::bench_room_scene();
+  ASSERT_EQ(file.faces.size(), room.faces.size());
+  const auto swap_yz = [](const pm::Vec3& v) { return pm::Vec3(v.x(), v.z(), v.y()); };
+  std::vector<bool> matched(file.faces.size(), false);
+  for (size_t f = 0; f < room.faces.size(); ++f) {
+    const pm::Polygon p = room.face_polygon(static_cast<int>(f));
+    const pm::Vec3 c = swap_yz(pm::polygon_centroid(p)), n = swap_yz(pm::polygon_normal(p));
+    const pm::Material& m = room.materials[size_t(room.faces[f].material)];
+    int found = -1;
+    for (size_t g = 0; g < file.faces.size() && found < 0; ++g) {
+      const pm::Polygon q = file.face_polygon(static_cast<int>(g));
+      if (!matched[g] && (pm::polygon_centroid(q) - c).norm() < 1e-9 && (pm::polygon_normal(q) - n).norm() < 1e-9 &&
+          std::abs(pm::polygon_area(q) - pm::polygon_area(p)) < 1e-12)
+        found = static_cast<int>(g);
+    }
+    ASSERT_GE(found, 0) << "bench face " << f << " (material " << m.name << ") is not in the file";
+    matched[size_t(found)] = true;
+    const pm::Material& k = file.materials[size_t(file.faces[size_t(found)].material)];
+    EXPECT_TRUE(k.reflectance.isApprox(m.reflectance) && (k.emission - m.emission).abs().maxCoeff() < 1e-12)
+        << "bench face " << f << ": " << m.name << " against " << k.name;
+  }
+  for (double edge : pv::bench_room_edges())
+    EXPECT_EQ(pm::subdivide(file, pv::bench_room_patching(edge)).size(),
+              pm::subdivide(room, pv::bench_room_patching(edge)).size())
+        << "edge " << edge;
+  fs::remove_all(dir);
 }
 
 TEST(BenchRunner, QuickRowsHoldFinitePositiveNumbers) {
