@@ -469,6 +469,81 @@ TEST(AlignedRectangles, TrianglesSkewQuadsAndOtherFramesAreNotEligible) {
   EXPECT_EQ(ar.area_factor(0, 0), 0.0);
 }
 
+// aligned_rectangle_pair (one pair, no mesh: the hierarchical method's links) against the
+// class on every ordered pair of meshes that exercise each path: the brickwork room (non-uniform
+// coordinates, parallel and perpendicular), the rotated cube (a frame not the world's), the
+// straddling pair (clipped at the common line, and wholly behind). The class merges coordinates
+// closer than 1e-12 of the mesh's size; these meshes have none, so the two agree to rounding.
+TEST(AlignedRectangles, OnePairWithoutAMeshGivesTheClassValue) {
+  auto brickwork = [] {
+    PatchMesh mesh;
+    const double cuts[4] = {0.0, 0.37, 0.81, 1.3};
+    for (int axis = 0; axis < 3; ++axis)
+      for (int side = 0; side < 2; ++side)
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b)
+            add_rect(mesh, axis, side ? -1 : 1, side ? 1.3 : 0.0, cuts[a], cuts[a + 1], cuts[b], cuts[b + 1]);
+    return mesh;
+  };
+  PatchMesh straddling;
+  add_rect(straddling, 2, +1, 0.5, 0.3, 1.5, 0.0, 1.0);
+  add_rect(straddling, 0, -1, 1.2, 0.2, 0.8, 0.1, 0.9);
+  add_rect(straddling, 0, -1, 1.2, 0.2, 0.8, 0.1, 0.45);
+  add_rect(straddling, 2, +1, 0.5, 1.3, 1.5, 0.0, 1.0);
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.7, Vec3(1, 2, 3).normalized()).toRotationMatrix();
+  for (const PatchMesh& mesh : {brickwork(), cube_mesh(4, R, Vec3(0.3, -2.0, 5.0)), straddling}) {
+    const AlignedRectangles ar(mesh);
+    double worst = 0.0;
+    int zeros = 0;
+    for (int i = 0; i < mesh.size(); ++i)
+      for (int j = 0; j < mesh.size(); ++j) {
+        if (i == j) continue;
+        Vec3 p[4], q[4];
+        mesh.polygon(i, p);
+        mesh.polygon(j, q);
+        double got = -1.0;
+        ASSERT_TRUE(aligned_rectangle_pair(p, mesh.patches[i].normal, q, mesh.patches[j].normal, got)) << i << "," << j;
+        const double want = ar.area_factor(i, j);
+        if (want == 0.0) {
+          ASSERT_EQ(got, 0.0) << i << "," << j;
+          ++zeros;
+        } else {
+          worst = std::max(worst, std::abs(got - want) / want);
+        }
+      }
+    EXPECT_LE(worst, 1e-13) << mesh.size() << " patches";
+    EXPECT_GT(zeros, 0);
+  }
+}
+
+TEST(AlignedRectangles, OnePairRefusesWhatTheClassDoesNotTake) {
+  const Vec3 floor[4] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  const Vec3 up = Vec3::UnitZ();
+  const double c = std::cos(0.3), s = std::sin(0.3);
+  const Vec3 rotated[4] = {{0, 0, 1}, {c, s, 1}, {c - s, s + c, 1}, {-s, c, 1}};  // another frame
+  const Vec3 parallelogram[4] = {{0, 0, 1}, {1, 0, 1}, {1.3, 1, 1}, {0.3, 1, 1}};
+  const Vec3 clockwise[4] = {{0, 0, 1}, {0, 1, 1}, {1, 1, 1}, {1, 0, 1}};  // wound against its normal
+  double af = 7.0;
+  EXPECT_FALSE(aligned_rectangle_pair(floor, up, rotated, up, af));
+  EXPECT_FALSE(aligned_rectangle_pair(floor, up, parallelogram, up, af));
+  EXPECT_FALSE(aligned_rectangle_pair(floor, up, clockwise, up, af));
+  EXPECT_FALSE(aligned_rectangle_pair(parallelogram, up, floor, up, af));
+  EXPECT_EQ(af, 7.0);  // nothing written
+  // The unit squares a distance 1 apart, facing: Howell C-11 (refs C11_unit_squares_c1).
+  const Vec3 ceiling[4] = {{0, 0, 1}, {0, 1, 1}, {1, 1, 1}, {1, 0, 1}};
+  ASSERT_TRUE(aligned_rectangle_pair(floor, up, ceiling, -up, af));
+  EXPECT_NEAR(af, 0.19982489569838738, 1e-15);
+  const Vec3 facing_up[4] = {{0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+  ASSERT_TRUE(aligned_rectangle_pair(floor, up, facing_up, up, af));  // its back to the floor
+  EXPECT_EQ(af, 0.0);
+  ASSERT_TRUE(aligned_rectangle_pair(ceiling, -up, floor, up, af));  // reciprocity: equal areas
+  EXPECT_NEAR(af, 0.19982489569838738, 1e-15);
+  // Sharing an edge at right angles: Howell C-14 (refs cube_floor_to_wall).
+  const Vec3 wall[4] = {{1, 0, 0}, {1, 0, 1}, {1, 1, 1}, {1, 1, 0}};
+  ASSERT_TRUE(aligned_rectangle_pair(floor, up, wall, -Vec3::UnitX(), af));
+  EXPECT_NEAR(af, 0.20004377607540315, 1e-15);
+}
+
 // The figures at production sizes: the rows of a sample of patches against the long-double
 // reference (same formula, term by term, other summation order), and a sample of far pairs
 // against 8^4 Gauss (the true error of the 16-term sum in long double). The error of A F is

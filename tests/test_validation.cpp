@@ -48,16 +48,19 @@ TEST(Validation, QuickSuiteMeetsItsAccuracyAndErrorsFallWithRefinement) {
   for (const std::string s :
        {"white furnace rho=0.5", "white furnace rho=0.9", "white furnace rho=0.99", "white furnace rho=0.999"})
     for (const auto& r : by[s]) EXPECT_LE(r.max_rel_error, 1e-9) << s;
-  // The hierarchical method's ladder: within the bounds (rms <= ε, max <= 5ε) and falling.
+  // The hierarchical method's ladder: within the bounds (rms <= ε, max <= 5ε). The cube's
+  // elements are rectangles of one frame, so every link's factor is the closed form and the rows
+  // sum to 1 to rounding: what is left is the solve's stop (a relative change of 1e-8 per sweep,
+  // at most ρ / (1 − ρ) = 9 times that from the fixed point), at every ε alike.
   const auto& hier = by["hierarchical: white furnace rho=0.9"];
   ASSERT_EQ(hier.size(), 2u);
   const double eps[2] = {1e-1, 3e-2};
   for (size_t k = 0; k < 2; ++k) {
     EXPECT_LE(hier[k].rms_rel_error, eps[k]) << hier[k].setting;
     EXPECT_LE(hier[k].max_rel_error, 5 * eps[k]) << hier[k].setting;
+    EXPECT_LE(hier[k].max_rel_error, 1e-7) << hier[k].setting;
     EXPECT_GT(hier[k].max_rel_error, 0.0) << hier[k].setting;  // not the exact furnace by construction
   }
-  EXPECT_LT(hier[1].max_rel_error, hier[0].max_rel_error);
 }
 
 TEST(Validation, WritesCsvAndPlot) {

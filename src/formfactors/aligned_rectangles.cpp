@@ -696,4 +696,95 @@ double AlignedRectangles::direct(const Rect& p, const Rect& q) const {
   return combine(inner[0][0], inner[0][1], inner[1][0], inner[1][1]);
 }
 
+namespace {
+
+// A rectangle's sides: unit u (corner 0 to 1) and v (1 to 2), when it is one: opposite sides
+// equal and adjacent ones at right angles to `rel` of its sides (plus rounding at `scale`, the
+// largest |coordinate|), counter-clockwise around `normal`.
+bool rectangle_sides(const Vec3 c[4], const Vec3& normal, double scale, Vec3& u, Vec3& v) {
+  const Vec3 e0 = c[1] - c[0], e1 = c[2] - c[1], e2 = c[3] - c[2], e3 = c[0] - c[3];
+  const double l0 = e0.norm(), l1 = e1.norm();
+  if (!(std::min(l0, l1) > 1e-9 * scale)) return false;
+  const double rel = 1e-12 + 16 * kEps * scale / std::min(l0, l1);
+  if (!((e0 + e2).norm() <= rel * l0) || !((e1 + e3).norm() <= rel * l1)) return false;
+  u = e0 / l0;
+  v = e1 / l1;
+  return std::abs(u.dot(v)) <= rel && (u.cross(v).normalized() - normal).norm() <= 4 * rel;
+}
+
+// Which of the frame's axes `d` runs along (to 1e-12), or −1.
+int axis_along(const Vec3 axes[3], const Vec3& d) {
+  for (int k = 0; k < 3; ++k)
+    if (std::abs(std::abs(d.dot(axes[k])) - 1.0) <= 1e-12 && (d - d.dot(axes[k]) * axes[k]).norm() <= 1e-12) return k;
+  return -1;
+}
+
+}  // namespace
+
+bool aligned_rectangle_pair(const Vec3 p[4], const Vec3& p_normal, const Vec3 q[4], const Vec3& q_normal,
+                            double& area_factor) {
+  double scale = 0.0;
+  for (int k = 0; k < 4; ++k) scale = std::max({scale, p[k].cwiseAbs().maxCoeff(), q[k].cwiseAbs().maxCoeff()});
+  Vec3 axes[3], qu, qv;
+  if (!rectangle_sides(p, p_normal, scale, axes[0], axes[1]) || !rectangle_sides(q, q_normal, scale, qu, qv))
+    return false;
+  axes[2] = axes[0].cross(axes[1]).normalized();  // P's normal: P lies in a plane of axis 2, facing +
+  const int a_u = axis_along(axes, qu), a_v = axis_along(axes, qv);
+  if (a_u < 0 || a_v < 0 || a_u == a_v) return false;
+  const int q_axis = 3 - a_u - a_v;  // Q's normal axis
+  const int q_sign = q_normal.dot(axes[q_axis]) > 0 ? 1 : -1;
+  // A rectangle's extent along frame axis k: its lowest and highest corner coordinates.
+  auto range = [&](const Vec3 c[4], int k, ld out[2]) {
+    out[0] = out[1] = ld(c[0].dot(axes[k]));
+    for (int m = 1; m < 4; ++m) {
+      out[0] = std::min(out[0], ld(c[m].dot(axes[k])));
+      out[1] = std::max(out[1], ld(c[m].dot(axes[k])));
+    }
+  };
+  auto offset = [&](const Vec3 c[4], int k) {
+    ld sum = 0;
+    for (int m = 0; m < 4; ++m) sum += ld(c[m].dot(axes[k]));
+    return sum / 4;
+  };
+  double inner[2][2][2];
+  if (q_axis == 2) {  // parallel planes (Howell C-11 superposed)
+    const ld z = offset(q, 2) - offset(p, 2);
+    if (q_sign > 0 || !(z > 0)) {  // facing the same way, or Q not in front of P
+      area_factor = 0.0;
+      return true;
+    }
+    ld px[2], py[2], qx[2], qy[2], y[2][2];
+    range(p, 0, px), range(p, 1, py), range(q, 0, qx), range(q, 1, qy);
+    for (int j = 0; j < 2; ++j)
+      for (int l = 0; l < 2; ++l) y[j][l] = std::fabs(py[j] - qy[l]);
+    for (int i = 0; i < 2; ++i)
+      for (int k = 0; k < 2; ++k) {
+        const ld x = std::fabs(px[i] - qx[k]);
+        split((gp(x, y[0][0], z) - gp(x, y[0][1], z)) - (gp(x, y[1][0], z) - gp(x, y[1][1], z)), inner[i][k]);
+      }
+  } else {  // perpendicular planes (Howell C-14 superposed), x along the common axis
+    const int common = 3 - 2 - q_axis, p_across = q_axis;
+    ld px[2], qx[2], pa[2], qa[2], y[2], e[2];
+    range(p, common, px), range(q, common, qx), range(p, p_across, pa), range(q, 2, qa);
+    const ld q_offset = offset(q, q_axis), p_offset = offset(p, 2);
+    // Distances from the common line, increasing, the parts behind the other's plane clipped off.
+    for (int k = 0; k < 2; ++k) {
+      y[k] = std::max(ld(0), q_sign * (pa[k] - q_offset));
+      e[k] = std::max(ld(0), qa[k] - p_offset);
+    }
+    if (q_sign < 0) std::swap(y[0], y[1]);
+    if (!(y[1] > 0) || !(e[1] > 0)) {
+      area_factor = 0.0;
+      return true;
+    }
+    for (int i = 0; i < 2; ++i)
+      for (int k = 0; k < 2; ++k) {
+        const ld x = std::fabs(px[i] - qx[k]);
+        split((gq(x, y[0], e[0]) - gq(x, y[0], e[1])) - (gq(x, y[1], e[0]) - gq(x, y[1], e[1])), inner[i][k]);
+      }
+  }
+  area_factor = combine(inner[0][0], inner[0][1], inner[1][0], inner[1][1]);
+  return true;
+}
+
 }  // namespace photometria

@@ -188,6 +188,15 @@ class AlignedRectangles {
   Summary summary_;
 };
 
+// The same closed form for one pair, without a mesh (a link between two elements of the
+// hierarchical method): A_P F_PQ in m², one-sided as area_factor(), when P and Q (4 corners each,
+// counter-clockwise around their unit normals) are rectangles whose sides run along the axes of
+// one orthonormal frame (P's sides, to 1e-12 relative); returns false, writing nothing,
+// otherwise. Coordinates are not merged (area_factor merges those closer than 1e-12 of the
+// mesh's size): a P edge lying in Q's plane to rounding gives the same factor to rounding.
+bool aligned_rectangle_pair(const Vec3 p[4], const Vec3& p_normal, const Vec3 q[4], const Vec3& q_normal,
+                            double& area_factor);
+
 namespace aligned_rectangles_detail {
 // ((a − b) − (c − d)) / 2π for four long double values each held exactly as hi + lo doubles: the
 // hi parts first, then the lo parts, then one rounding. Where the sum cancels (far pairs) the
