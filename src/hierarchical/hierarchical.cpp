@@ -245,11 +245,12 @@ struct HierarchicalRadiosity::Impl {
     // (pair_integration.h: exact kernel, receiver integral adaptive near shared edges);
     // occluders scale it by the visible share at p's points.
     double unoccluded = 0.0;
-    if (ep.corner_count == 4 && eq.corner_count == 4 && aligned_rectangle_pair(ep.corners, np, eq.corners, nq, unoccluded))
+    if (ep.corner_count == 4 && eq.corner_count == 4 &&
+        aligned_rectangle_pair(ep.corners, np, eq.corners, nq, unoccluded))
       unoccluded /= ep.area;
     else
-      unoccluded =
-          pair_form_factor(ep.corners, ep.corner_count, np, eq.corners, eq.corner_count, nq, kLinkTolerance).form_factor;
+      unoccluded = pair_form_factor(ep.corners, ep.corner_count, np, eq.corners, eq.corner_count, nq, kLinkTolerance)
+                       .form_factor;
     double visible = 0.0, total = 0.0, lo = 1e300, hi = -1e300;
     for (const QuadraturePoint& x : patch_quadrature(ep.corners, ep.corner_count, 2)) {
       double f0 = 0.0;

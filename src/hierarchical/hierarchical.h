@@ -6,9 +6,10 @@
 //    four at its edge midpoints and centre, a triangle into four at its edge midpoints.
 //  - A link p <- q carries the form factor F_pq of receiver element p from source element q:
 //      F_pq = F_unoccluded(p -> q) · Σ_k w_k F_vis(dA_{x_k} -> q) / Σ_k w_k F(dA_{x_k} -> q)
-//    the unoccluded factor from the per-pair rule (formfactors/pair_integration.h: Lambert's
-//    exact point-to-polygon kernel, the receiver integral adaptive near shared edges), the
-//    visible share from p's 2 × 2 Gauss points x_k (visibility/: exact clipping or rays).
+//    the unoccluded factor exact for two rectangles along one frame (formfactors/aligned_rectangles.h:
+//    Howell's C-11 / C-14 superposed), else from the per-pair rule (formfactors/pair_integration.h:
+//    Lambert's exact point-to-polygon kernel, the receiver integral adaptive near shared edges),
+//    the visible share from p's 2 × 2 Gauss points x_k (visibility/: exact clipping or rays).
 //  - Refinement with the radiosity it carries ("BF refinement": Hanrahan et al. 1991; Cohen &
 //    Wallace, "Radiosity and Realistic Image Synthesis", 1993, ch. 7), for an output gathered at
 //    every point (Baum et al. 1989, below), with ΔF_pq the range of F_vis(dA_x -> q) over p's
