@@ -166,7 +166,8 @@ def furnace_cube():
 
 
 def lit_room(name, comment):
-    """A closed room 4 m (x) by 3 m (z), 2.5 m high (y), with its ceiling light and its materials."""
+    """A closed room 4 m (x) by 3 m (z), 2.5 m high (y), facing inward: its floor, its other five
+    faces and its ceiling light, with the materials of both rooms but the chairs'."""
     W, H, D = 4.0, 2.5, 3.0  # x width, y height, z depth
     obj = Obj(name, comment)
     obj.material("wall", (0.7, 0.7, 0.7))
@@ -174,9 +175,10 @@ def lit_room(name, comment):
     obj.material("light", (0.8, 0.8, 0.8), (10.0, 10.0, 10.0))
     obj.material("table", (0.5, 0.5, 0.5))
     room = box_quads((0, 0, 0), (W, H, D), inward=True)
+    floor = [q for q in room if all(p[1] == 0 for p in q)]
     cx, cz = W / 2, D / 2
     light = rect_y(cx - 0.4, cx + 0.4, cz - 0.4, cz + 0.4, H - 0.001, up=False)
-    return obj, room, light, (W, H, D)
+    return obj, floor, [q for q in room if q not in floor], light, (W, H, D)
 
 
 def table_quads(cx, cz):
@@ -193,14 +195,13 @@ def table_quads(cx, cz):
 
 
 def room_with_table():
-    obj, room, light, (W, H, D) = lit_room(
+    obj, floor, others, light, (W, H, D) = lit_room(
         "room_with_table", "Closed room 4 m (x) by 3 m (z), 2.5 m high (y), facing inward,\n"
                            "a 0.8 m square ceiling light 1 mm below the ceiling facing down, and a table\n"
                            "(1.2 x 0.8 m top, 0.04 m thick, top at 0.75 m, four 0.05 m legs) made of\n"
                            "closed boxes facing outward.")
-    floor = [q for q in room if all(p[1] == 0 for p in q)]
-    ceiling = [q for q in room if all(p[1] == H for p in q)]
-    walls = [q for q in room if q not in floor and q not in ceiling]
+    ceiling = [q for q in others if all(p[1] == H for p in q)]
+    walls = [q for q in others if q not in ceiling]
     obj.faces("floor", "floor", floor)
     obj.faces("ceiling", "wall", ceiling)
     obj.faces("walls", "wall", walls)
@@ -211,16 +212,13 @@ def room_with_table():
 
 def furnished_room():
     """The bench's furnished room (src/validation/bench.cpp), with y up instead of z."""
-    obj, room, light, (W, H, D) = lit_room(
-        "furnished_room", "The furnished room of `photometria bench` (room edge=...): a closed room 4 m (x)\n"
-                          "by 3 m (z), 2.5 m high (y), facing inward; a 0.8 m square ceiling light 1 mm\n"
-                          "below the ceiling facing down; a table (1.2 x 0.8 m top, 0.04 m thick, top at\n"
-                          "0.75 m, four 0.05 m legs) and four chairs (0.45 m seats, 0.04 m legs, 0.45 m\n"
-                          "backs), every piece a closed box facing outward. 181 quads.")
+    obj, floor, others, light, (W, H, D) = lit_room(
+        "furnished_room", "The furnished room of `photometria bench`: room_with_table's room, light and\n"
+                          "table, and four chairs (0.45 m seats, 0.04 m legs, 0.45 m backs), every piece\n"
+                          "a closed box facing outward. 181 quads.")
     obj.material("chair", (0.4, 0.4, 0.4))
-    floor = [q for q in room if all(p[1] == 0 for p in q)]
     obj.faces("room", "floor", floor)
-    obj.faces("room", "wall", [q for q in room if q not in floor])
+    obj.faces("room", "wall", others)
     obj.faces("light", "light", [light])
     cx, cz = W / 2, D / 2
     obj.faces("table", "table", table_quads(cx, cz))

@@ -35,6 +35,35 @@ ld gq(ld x, ld y, ld e) {
   return t;
 }
 
+// A long double as an unevaluated sum hi + lo of two doubles (exact: 64 bits fit in 53 + 53).
+inline void split(ld x, double* out) {
+  out[0] = static_cast<double>(x);
+  out[1] = static_cast<double>(x - out[0]);
+}
+
+// The superposed sums of Ehlert & Smith 1993 eqs. 3–6 (header), per (i, k) the inner sum over
+// (j, l) split into hi + lo doubles for combine(): parallel planes a distance z apart, P's extents
+// px, py and Q's qx, qy along the two in-plane axes (low, high)...
+void parallel_inner(const ld px[2], const ld py[2], const ld qx[2], const ld qy[2], ld z, double inner[2][2][2]) {
+  ld y[2][2];
+  for (int j = 0; j < 2; ++j)
+    for (int l = 0; l < 2; ++l) y[j][l] = std::fabs(py[j] - qy[l]);
+  for (int i = 0; i < 2; ++i)
+    for (int k = 0; k < 2; ++k) {
+      const ld x = std::fabs(px[i] - qx[k]);
+      split((gp(x, y[0][0], z) - gp(x, y[0][1], z)) - (gp(x, y[1][0], z) - gp(x, y[1][1], z)), inner[i][k]);
+    }
+}
+// ... and perpendicular planes: extents px, qx along the common axis, distances y (on P) and e (on
+// Q) from the common line, increasing.
+void perpendicular_inner(const ld px[2], const ld qx[2], const ld y[2], const ld e[2], double inner[2][2][2]) {
+  for (int i = 0; i < 2; ++i)
+    for (int k = 0; k < 2; ++k) {
+      const ld x = std::fabs(px[i] - qx[k]);
+      split((gq(x, y[0], e[0]) - gq(x, y[0], e[1])) - (gq(x, y[1], e[0]) - gq(x, y[1], e[1])), inner[i][k]);
+    }
+}
+
 // Distinct values of `v` (increasing) and, for each element, the index of its value.
 std::vector<ld> distinct(const std::vector<ld>& v, std::vector<int32_t>& id) {
   std::vector<ld> u = v;
@@ -44,12 +73,6 @@ std::vector<ld> distinct(const std::vector<ld>& v, std::vector<int32_t>& id) {
   for (size_t k = 0; k < v.size(); ++k)
     id[k] = static_cast<int32_t>(std::lower_bound(u.begin(), u.end(), v[k]) - u.begin());
   return u;
-}
-
-// A long double as an unevaluated sum hi + lo of two doubles (exact: 64 bits fit in 53 + 53).
-inline void split(ld x, double* out) {
-  out[0] = static_cast<double>(x);
-  out[1] = static_cast<double>(x - out[0]);
 }
 
 using aligned_rectangles_detail::combine;
@@ -667,14 +690,9 @@ double AlignedRectangles::direct(const Rect& p, const Rect& q) const {
     if (P.sign == Q.sign) return 0.0;
     const ld z = P.sign * (ld(fr.coord[P.axis][Q.offset]) - ld(fr.coord[P.axis][P.offset]));
     if (!(z > 0)) return 0.0;
-    ld y[2][2];
-    for (int j = 0; j < 2; ++j)
-      for (int l = 0; l < 2; ++l) y[j][l] = std::fabs(coord(P, p, 1, j) - coord(Q, q, 1, l));
-    for (int i = 0; i < 2; ++i)
-      for (int k = 0; k < 2; ++k) {
-        const ld x = std::fabs(coord(P, p, 0, i) - coord(Q, q, 0, k));
-        split((gp(x, y[0][0], z) - gp(x, y[0][1], z)) - (gp(x, y[1][0], z) - gp(x, y[1][1], z)), inner[i][k]);
-      }
+    const ld px[2] = {coord(P, p, 0, 0), coord(P, p, 0, 1)}, py[2] = {coord(P, p, 1, 0), coord(P, p, 1, 1)};
+    const ld qx[2] = {coord(Q, q, 0, 0), coord(Q, q, 0, 1)}, qy[2] = {coord(Q, q, 1, 0), coord(Q, q, 1, 1)};
+    parallel_inner(px, py, qx, qy, z, inner);
   } else {
     const int common = 3 - P.axis - Q.axis;
     const int po = slot_of(P.axis, common), qo = slot_of(Q.axis, common);
@@ -687,11 +705,8 @@ double AlignedRectangles::direct(const Rect& p, const Rect& q) const {
     if (Q.sign < 0) std::swap(y[0], y[1]);
     if (P.sign < 0) std::swap(e[0], e[1]);
     if (!(y[1] > 0) || !(e[1] > 0)) return 0.0;
-    for (int i = 0; i < 2; ++i)
-      for (int k = 0; k < 2; ++k) {
-        const ld x = std::fabs(coord(P, p, po, i) - coord(Q, q, qo, k));
-        split((gq(x, y[0], e[0]) - gq(x, y[0], e[1])) - (gq(x, y[1], e[0]) - gq(x, y[1], e[1])), inner[i][k]);
-      }
+    const ld px[2] = {coord(P, p, po, 0), coord(P, p, po, 1)}, qx[2] = {coord(Q, q, qo, 0), coord(Q, q, qo, 1)};
+    perpendicular_inner(px, qx, y, e, inner);
   }
   return combine(inner[0][0], inner[0][1], inner[1][0], inner[1][1]);
 }
@@ -753,15 +768,9 @@ bool aligned_rectangle_pair(const Vec3 p[4], const Vec3& p_normal, const Vec3 q[
       area_factor = 0.0;
       return true;
     }
-    ld px[2], py[2], qx[2], qy[2], y[2][2];
+    ld px[2], py[2], qx[2], qy[2];
     range(p, 0, px), range(p, 1, py), range(q, 0, qx), range(q, 1, qy);
-    for (int j = 0; j < 2; ++j)
-      for (int l = 0; l < 2; ++l) y[j][l] = std::fabs(py[j] - qy[l]);
-    for (int i = 0; i < 2; ++i)
-      for (int k = 0; k < 2; ++k) {
-        const ld x = std::fabs(px[i] - qx[k]);
-        split((gp(x, y[0][0], z) - gp(x, y[0][1], z)) - (gp(x, y[1][0], z) - gp(x, y[1][1], z)), inner[i][k]);
-      }
+    parallel_inner(px, py, qx, qy, z, inner);
   } else {  // perpendicular planes (Howell C-14 superposed), x along the common axis
     const int common = 3 - 2 - q_axis, p_across = q_axis;
     ld px[2], qx[2], pa[2], qa[2], y[2], e[2];
@@ -777,11 +786,7 @@ bool aligned_rectangle_pair(const Vec3 p[4], const Vec3& p_normal, const Vec3 q[
       area_factor = 0.0;
       return true;
     }
-    for (int i = 0; i < 2; ++i)
-      for (int k = 0; k < 2; ++k) {
-        const ld x = std::fabs(px[i] - qx[k]);
-        split((gq(x, y[0], e[0]) - gq(x, y[0], e[1])) - (gq(x, y[1], e[0]) - gq(x, y[1], e[1])), inner[i][k]);
-      }
+    perpendicular_inner(px, qx, y, e, inner);
   }
   area_factor = combine(inner[0][0], inner[0][1], inner[1][0], inner[1][1]);
   return true;
