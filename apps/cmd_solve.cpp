@@ -54,6 +54,7 @@ struct SolveArgs {
   std::optional<std::string> solver;
   std::optional<std::string> method;
   std::optional<double> error, min_element;
+  std::optional<int> cluster_above;
   std::optional<std::string> max_memory;
   std::string matrix = "auto", matrix_precision = "auto";
   bool flip_normals = false, keep_orientation = false;
@@ -189,6 +190,7 @@ pm::Scene load_and_configure(const SolveArgs& a, pm::SolveOptions& opt, bool war
     pm::throw_bad_input("--method: '" + method + "' is not dense, hierarchical or auto");
   opt.hierarchical_error = setting(a.error, st, "error", 1e-2);
   opt.min_element_edge = setting(a.min_element, st, "min_element", 0.0);
+  opt.cluster_above = setting(a.cluster_above, st, "cluster_above", 512);
   if (!(opt.hierarchical_error > 0 && opt.hierarchical_error < 1)) pm::throw_bad_input("--error must be in (0, 1)");
   if (!(opt.min_element_edge >= 0) || !std::isfinite(opt.min_element_edge))
     pm::throw_bad_input("--min-element must be finite and >= 0");
@@ -250,6 +252,11 @@ Command add_solve_command(CLI::App& app) {
                    "Hierarchical method: elements with a longest edge at most this (metres) are not split "
                    "(default: bounding diagonal / 256)")
       ->check(options::real_in(0, options::kInf));
+  solve
+      ->add_option("--cluster-above", s.cluster_above,
+                   "Hierarchical method: with more faces than this, the first links are made down a tree of "
+                   "clusters instead of between every facing pair of faces (default 512; 0: always; -1: never)")
+      ->check(options::integer_in(-1, std::numeric_limits<int>::max()));
   solve->add_option("--threads", s.threads, "Threads (default: all cores)")
       ->check(options::integer_in(0, options::kMaxThreads));
   solve->add_option("--reflectance", s.reflectance, "Default reflectance for formats without materials: r or r,g,b");

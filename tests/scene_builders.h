@@ -55,6 +55,28 @@ inline void add_box(Scene& s, const Vec3& lo, const Vec3& hi, int material = 0) 
   }
 }
 
+// Appends a closed axis-aligned box [lo, hi] whose every side is an n × n grid of quads, each its
+// own face (a meshed room when `inward`, its normals into the box; a meshed solid otherwise).
+inline void add_meshed_box(Scene& s, const Vec3& lo, const Vec3& hi, int n, bool inward, int material = 0) {
+  const Vec3 size = hi - lo;
+  // Each side: origin, two edge vectors u, v with u × v outward.
+  const Vec3 x(size.x(), 0, 0), y(0, size.y(), 0), z(0, 0, size.z());
+  const Vec3 sides[6][3] = {{lo, y, x}, {lo + z, x, y}, {lo, x, z}, {lo + y, z, x}, {lo, z, y}, {lo + x, y, z}};
+  for (const auto& side : sides) {
+    const Vec3& o = side[0];
+    const Vec3 u = inward ? side[2] : side[1], v = inward ? side[1] : side[2];
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) {
+        const int b = static_cast<int>(s.vertices.size());
+        s.vertices.push_back(o + u * (double(i) / n) + v * (double(j) / n));
+        s.vertices.push_back(o + u * (double(i + 1) / n) + v * (double(j) / n));
+        s.vertices.push_back(o + u * (double(i + 1) / n) + v * (double(j + 1) / n));
+        s.vertices.push_back(o + u * (double(i) / n) + v * (double(j + 1) / n));
+        s.faces.push_back({{b, b + 1, b + 2, b + 3}, material, 0, static_cast<int>(s.faces.size())});
+      }
+  }
+}
+
 // Appends a closed, non-convex solid: a sphere of `rings` × `segments` triangles around `centre`
 // whose radius varies as r (1 + bump sin 3t sin 4p) with the polar angle t and azimuth p (a
 // scanned object), its triangles outward.

@@ -348,6 +348,19 @@ TEST(Cli, HierarchicalMethodWritesTheLeavesAndReportsTheHierarchy) {
   for (const std::string name : {"radiosity", "irradiance"})
     for (double v : array(g.point_arrays, name).values) ASSERT_TRUE(std::isfinite(v) && v >= 0) << name;
 
+  EXPECT_EQ(h["clusters"].get<int>(), 0);  // few faces: every facing pair linked (--cluster-above 512)
+  EXPECT_EQ(h["cluster_links"].get<long long>(), 0);
+  const CliRun clustered = run("solve " + mesh("cornell_box.obj") + " -o " + out +
+                               " --method hierarchical --error 0.3 --cluster-above 0 --json");
+  ASSERT_EQ(clustered.exit_code, 0) << clustered.err;
+  const auto c = nlohmann::json::parse(clustered.out)["hierarchical"];
+  EXPECT_EQ(c["clusters"].get<int>(), c["roots"].get<int>() - 1);
+  EXPECT_TRUE(c.contains("cluster_links"));
+  const CliRun no_clusters =
+      run("solve " + mesh("cornell_box.obj") + " -o " + out + " --method hierarchical --cluster-above -2");
+  EXPECT_EQ(no_clusters.exit_code, 1);
+  EXPECT_NE(no_clusters.err.find("--cluster-above"), std::string::npos) << no_clusters.err;
+
   const CliRun bad = run("solve " + mesh("cornell_box.obj") + " -o " + out + " --method sparse");
   EXPECT_EQ(bad.exit_code, 1);
   EXPECT_NE(bad.err.find("--method: 'sparse' is not dense, hierarchical or auto"), std::string::npos) << bad.err;

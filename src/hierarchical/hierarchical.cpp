@@ -10,6 +10,7 @@
 #include "formfactors/aligned_rectangles.h"
 #include "formfactors/pair_integration.h"
 #include "formfactors/quadrature.h"
+#include "hierarchical/clusters.h"
 #include "kernels/lambert.h"
 #include "util/error.h"
 
@@ -33,6 +34,11 @@ struct Element {
   bool leaf() const { return first_child < 0; }
 };
 
+// A link's source is an element (>= 0) or a cluster (clusters.h cluster_node: < 0). A link with a
+// cluster at either end (kept at the receiving cluster, or at a root element when only the
+// source is a cluster) carries the transfer at the receiver's centre (clusters.h
+// cluster_transfer: `factor` with the receiver turned toward the source, `error` its estimate),
+// for refinement; the gather evaluates it at each receiver point (transfer_at).
 struct Link {
   int source : 31;
   // Whether an occluder lay in the shaft from the receiver to the source: a point of the
@@ -61,11 +67,10 @@ struct HierarchicalRadiosity::Impl {
   Impl(const Scene& scene, const PatchMesh& roots, const Visibility* vis, const DirectLighting& lights,
        const HierarchicalOptions& opt)
       : scene_(scene), roots_(roots), vis_(vis), lights_(lights), opt_(opt) {
-    if (opt_.min_edge <= 0.0) {
-      Eigen::AlignedBox3d box;
-      for (const Vec3& v : roots.points) box.extend(v);
-      opt_.min_edge = box.isEmpty() ? 0.0 : box.diagonal().norm() / 256.0;
-    }
+    Eigen::AlignedBox3d box;
+    for (const Vec3& v : roots.points) box.extend(v);
+    const double diagonal = box.isEmpty() ? 0.0 : box.diagonal().norm();
+    if (opt_.min_edge <= 0.0) opt_.min_edge = diagonal / 256.0;
     elements_.reserve(size_t(roots.size()) * 4);
     for (int i = 0; i < roots.size(); ++i) {
       Element e;
@@ -77,6 +82,8 @@ struct HierarchicalRadiosity::Impl {
     }
     links_.resize(elements_.size());
     light_new_elements(0);
+    clustered_ = opt_.cluster_above >= 0 && roots.size() > std::max(opt_.cluster_above, 1);
+    if (clustered_) build_clusters(1e-9 * diagonal);
   }
 
   HierarchicalSolution run() {
@@ -84,11 +91,17 @@ struct HierarchicalRadiosity::Impl {
     st.roots = roots_.size();
     st.error = opt_.error;
     st.min_edge = opt_.min_edge;
-    // Initial links: every facing pair of roots (no clustering yet).
+    // Initial links: down the cluster tree from the top cluster with itself (link_nodes), or
+    // every facing pair of roots.
     std::vector<std::pair<int, int>> pending;
-    for (int p = 0; p < roots_.size(); ++p)
-      for (int q = 0; q < roots_.size(); ++q)
-        if (p != q && facing(p, q)) pending.emplace_back(p, q);
+    if (clustered_) {
+      std::vector<int> occluders;
+      link_nodes(tree_.top(), tree_.top(), opt_.error * mean_radiosity(), pending, occluders);
+    } else {
+      for (int p = 0; p < roots_.size(); ++p)
+        for (int q = 0; q < roots_.size(); ++q)
+          if (p != q && facing(p, q)) pending.emplace_back(p, q);
+    }
     evaluate(pending);
     solve();
     for (int round = 0; round < opt_.max_rounds; ++round) {
@@ -108,6 +121,11 @@ struct HierarchicalRadiosity::Impl {
     std::vector<int> occluders;
     for (int e = leaf_element_[size_t(leaf)]; e >= 0; e = elements_[size_t(e)].parent)
       for (const Link& l : links_[size_t(e)]) {
+        ++gathered;
+        if (l.source < 0) {  // from a cluster: its transfer, unoccluded (link_nodes)
+          h += transfer_at(l, x.point, x.normal) * node_radiosity(l.source);
+          continue;
+        }
         const Element& q = elements_[size_t(l.source)];
         const Vec3& nq = normal(l.source);
         // x on q's boundary (a crease): Lambert's limit from x.approach, as the dense gather.
@@ -124,9 +142,10 @@ struct HierarchicalRadiosity::Impl {
             f = vis_->point_to_patch(x, q.corners, q.corner_count, nq, f, occluders, opt_.rays, stream, tally, true);
           }
         }
-        ++gathered;
         h += f * q.radiosity;
       }
+    gather_clusters(elements_[size_t(leaf_element_[size_t(leaf)])].patch, x.point, x.normal, h, nullptr, nullptr,
+                    &gathered);
     return h;
   }
 
@@ -144,6 +163,227 @@ struct HierarchicalRadiosity::Impl {
     elements_.push_back(e);
   }
   const Vec3& normal(int e) const { return roots_.patches[size_t(elements_[size_t(e)].patch)].normal; }
+
+  // --- Clusters (clusters.h): a tree over the roots, linked from the top down (link_nodes). ---
+
+  void build_clusters(double tolerance) {
+    cluster_faces_.resize(size_t(roots_.size()));
+    for (int r = 0; r < roots_.size(); ++r) {
+      const Element& e = elements_[size_t(r)];
+      ClusterFace& f = cluster_faces_[size_t(r)];
+      std::copy(e.corners, e.corners + 4, f.corners);
+      f.corner_count = e.corner_count;
+      f.normal = normal(r);
+      f.centroid = e.centroid;
+      f.area = e.area;
+      f.reflectance = largest(e.reflectance);
+    }
+    tree_ = build_cluster_tree(cluster_faces_, tolerance);
+    cluster_links_.resize(tree_.clusters.size());
+    cluster_radiosity_.assign(tree_.clusters.size(), Rgb::Zero());
+    cluster_spread_.assign(tree_.clusters.size(), 0.0);
+    cluster_low_.assign(tree_.clusters.size(), 0.0);
+    roots_of_face_.resize(scene_.faces.size());
+    for (int r = 0; r < roots_.size(); ++r) roots_of_face_[size_t(roots_.patches[size_t(r)].face)].push_back(r);
+    pull_clusters();
+  }
+
+  const Cluster& cluster(int node) const { return tree_.clusters[size_t(cluster_of_node(node))]; }
+  const Rgb& node_radiosity(int node) const {
+    return node >= 0 ? elements_[size_t(node)].radiosity : cluster_radiosity_[size_t(cluster_of_node(node))];
+  }
+  double node_spread(int node) const {
+    return node >= 0 ? elements_[size_t(node)].spread : cluster_spread_[size_t(cluster_of_node(node))];
+  }
+  double node_area(int node) const { return node >= 0 ? elements_[size_t(node)].area : cluster(node).area; }
+  // The node's corners (a root's) or its box's 8, in a loop along the box's edges (the shaft's
+  // hull candidates take consecutive points as edges).
+  int node_points(int node, Vec3* out) const {
+    if (node >= 0) {
+      const Element& e = elements_[size_t(node)];
+      std::copy(e.corners, e.corners + e.corner_count, out);
+      return e.corner_count;
+    }
+    const Eigen::AlignedBox3d& b = cluster(node).box;
+    const Vec3 lo = b.min(), hi = b.max();
+    const int loop[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 1, 1}, {1, 1, 1}, {1, 0, 1}, {0, 0, 1}};
+    for (int k = 0; k < 8; ++k)
+      out[k] = Vec3(loop[k][0] ? hi.x() : lo.x(), loop[k][1] ? hi.y() : lo.y(), loop[k][2] ? hi.z() : lo.z());
+    return 8;
+  }
+  bool node_holds(int node, int root) const {
+    if (node >= 0) return node == root;
+    const Cluster& c = cluster(node);
+    const int k = tree_.position[size_t(root)];
+    return k >= c.first && k < c.first + c.count;
+  }
+
+  // Area-weighted mean radiosity of each cluster, and how much it varies over the cluster: the
+  // range of its roots' radiosity (largest channel). The error of sending one mean is at most
+  // the factor times that range (cluster_link_above).
+  void pull_clusters() {
+    for (size_t c = 0; c < tree_.clusters.size(); ++c) {
+      const Cluster& cl = tree_.clusters[c];
+      Rgb b = Rgb::Zero();
+      double lo = 1e300, hi = -1e300;
+      for (int child : cl.children) {
+        const Rgb& bc = node_radiosity(child);
+        b += node_area(child) * bc;
+        lo = std::min(lo, child >= 0 ? largest(bc) : cluster_low_[size_t(cluster_of_node(child))]);
+        hi = std::max(hi, child >= 0 ? largest(bc)
+                                     : cluster_low_[size_t(cluster_of_node(child))] +
+                                           cluster_spread_[size_t(cluster_of_node(child))]);
+      }
+      cluster_radiosity_[c] = b / cl.area;
+      cluster_low_[c] = lo;
+      cluster_spread_[c] = hi - lo;
+    }
+  }
+
+  // F(dA_x <- source) of a link with a cluster at either end, at point x of normal n: Lambert's
+  // exact factor when the source is a root (its polygon), the cluster transfer when it is a
+  // cluster (clusters.h); nothing blocks it (link_nodes).
+  double transfer_at(const Link& l, const Vec3& x, const Vec3& n) const {
+    if (l.source >= 0) {
+      const Element& q = elements_[size_t(l.source)];
+      return lambert_form_factor(Receiver{x, n}, q.corners, q.corner_count);
+    }
+    const Cluster& c = cluster(l.source);
+    return cluster_factor_at(x, n, c.centre, c.vector_area);
+  }
+
+  // The factor of link l at receiver element e (normal n): an element link's own, or a
+  // cluster source's transfer at e's centroid.
+  double factor_at(int e, const Link& l, const Vec3& n) const {
+    return l.source >= 0 ? double(l.factor) : transfer_at(l, elements_[size_t(e)].centroid, n);
+  }
+
+  // How much what a cluster link sends (factor f at x, from a source at distance d) varies over
+  // root r: the cosine and 1/d² change by about r/d and 2r/d across it.
+  double cluster_range_over_root(int root, double f, double d) const {
+    return 2.0 * f * 3.0 * node_radius(tree_, cluster_faces_, root) / d;
+  }
+
+  // What the links of root's enclosing clusters bring to point x (normal n) on the root:
+  // irradiance into h, and (when asked) the range of what they send over the root, their
+  // factors' sum, and how many links were gathered.
+  void gather_clusters(int root, const Vec3& x, const Vec3& n, Rgb& h, double* range, double* row,
+                       long long* count) const {
+    if (!clustered_) return;
+    for (int c = tree_.parent[size_t(root)]; c >= 0; c = tree_.clusters[size_t(c)].parent)
+      for (const Link& l : cluster_links_[size_t(c)]) {
+        const double f = transfer_at(l, x, n);
+        const Rgb& b = node_radiosity(l.source);
+        h += f * b;
+        if (range)
+          *range +=
+              cluster_range_over_root(root, f, (node_centre(tree_, cluster_faces_, l.source) - x).norm()) * largest(b);
+        if (row) *row += f;
+        if (count) ++*count;
+      }
+  }
+
+  // Whether a root can exchange light with a node: some corner of the node (its box's, for a
+  // cluster) clearly in front of the root's plane.
+  bool in_front_of_root(int root, int node) const {
+    Vec3 points[8];
+    const int n = node_points(node, points);
+    const Element& e = elements_[size_t(root)];
+    const double tol = 1e-9 * e.longest_edge;
+    for (int k = 0; k < n; ++k)
+      if (normal(root).dot(points[k] - e.corners[0]) > tol) return true;
+    return false;
+  }
+
+  // Which side of a cluster link to split: the one that is a cluster, the larger when both are.
+  int split_side(int a, int b) const {
+    if (b >= 0) return 1;
+    if (a >= 0) return 2;
+    return node_radius(tree_, cluster_faces_, a) >= node_radius(tree_, cluster_faces_, b) ? 1 : 2;
+  }
+
+  // The error a cluster link leaves at the receiver: the transfer's bound times the radiosity it
+  // carries, and the source's spread times its factor (as e_source of element links). Held to
+  // the threshold times the link's own factor, without the element links' floor: the output
+  // gathers a cluster link as it is, so its error is not one the exact kernel at each point
+  // removes, and the links of one receiver must not add up past ε.
+  bool cluster_link_above(int a, const Link& l, double threshold) const {
+    const double rho = a >= 0 ? largest(elements_[size_t(a)].reflectance) : cluster(a).reflectance;
+    const double e = std::max(rho * largest(node_radiosity(l.source)) * double(l.error),
+                              rho * double(l.factor) * node_spread(l.source));
+    return e > threshold * double(l.factor);
+  }
+
+  // Nothing can block a segment between a and b: both convex (clusters.h) and the shaft of
+  // their boxes holds no occluder but those made of their own faces.
+  bool unblocked(int a, int b, std::vector<int>& occluders) const {
+    if ((a < 0 && !cluster(a).convex) || (b < 0 && !cluster(b).convex)) return false;
+    if (!vis_) return true;
+    Vec3 pa[8], pb[8];
+    const int na = node_points(a, pa), nb = node_points(b, pb);
+    vis_->culler().occluders(pa, na, pb, nb, occluders);
+    for (const int o : occluders)
+      for (const int f : vis_->culler().occluder_faces(o))
+        for (const int r : roots_of_face_[size_t(f)])
+          if (!node_holds(a, r) && !node_holds(b, r)) return false;
+    return true;
+  }
+
+  // Links receiver node a from source node b (not both roots): a cluster link where the
+  // transfer is valid, unblocked and within the error; else down the tree, the larger side
+  // first; pairs of roots go to `pending` (element links, evaluate()).
+  void link_nodes(int a, int b, double threshold, std::vector<std::pair<int, int>>& pending,
+                  std::vector<int>& occluders) {
+    if (a >= 0 && b >= 0) {
+      if (a != b && facing(a, b)) pending.emplace_back(a, b);
+      return;
+    }
+    if (a == b) {  // a cluster with itself: every pair of its children
+      const Cluster c = cluster(a);
+      for (const int x : c.children)
+        for (const int y : c.children) link_nodes(x, y, threshold, pending, occluders);
+      return;
+    }
+    if ((a >= 0 && !in_front_of_root(a, b)) || (b >= 0 && !in_front_of_root(b, a))) return;
+    ++stats_.links_evaluated;
+    const ClusterTransfer t = cluster_transfer(tree_, cluster_faces_, a, b);
+    if (t.valid) {
+      const Link l{b, 0, float(t.factor), float(t.error), 1.0f};
+      if (!cluster_link_above(a, l, threshold) && unblocked(a, b, occluders)) {
+        (a < 0 ? cluster_links_[size_t(cluster_of_node(a))] : links_[size_t(a)]).push_back(l);
+        return;
+      }
+    }
+    split_cluster_link(a, b, threshold, pending, occluders);
+  }
+  void split_cluster_link(int a, int b, double threshold, std::vector<std::pair<int, int>>& pending,
+                          std::vector<int>& occluders) {
+    if (split_side(a, b) == 1) {
+      for (const int x : cluster(a).children) link_nodes(x, b, threshold, pending, occluders);
+    } else {
+      for (const int y : cluster(b).children) link_nodes(a, y, threshold, pending, occluders);
+    }
+  }
+
+  // Cluster links above the error with the present radiosity, split down the tree; the pairs of
+  // roots this reaches go to `pending`. Returns the links split.
+  long long refine_cluster_links(double threshold, std::vector<std::pair<int, int>>& pending) {
+    std::vector<std::pair<int, int>> split;
+    auto take_out = [&](int receiver, std::vector<Link>& ls) {
+      size_t kept = 0;
+      for (const Link& l : ls) {
+        const bool cluster_link = receiver < 0 || l.source < 0;
+        if (cluster_link && cluster_link_above(receiver, l, threshold)) split.emplace_back(receiver, l.source);
+        else ls[kept++] = l;
+      }
+      ls.resize(kept);
+    };
+    for (size_t c = 0; c < cluster_links_.size(); ++c) take_out(cluster_node(int(c)), cluster_links_[c]);
+    for (int r = 0; r < roots_.size(); ++r) take_out(r, links_[size_t(r)]);
+    std::vector<int> occluders;
+    for (const auto& [a, b] : split) split_cluster_link(a, b, threshold, pending, occluders);
+    return static_cast<long long>(split.size());
+  }
 
   // H_direct at the centroid of the elements from `first` on (analytic lights).
   void light_new_elements(int first) {
@@ -302,15 +542,21 @@ struct HierarchicalRadiosity::Impl {
     const double threshold = opt_.error * mean_radiosity();
     long long n = 0;
     for (size_t p = 0; p < links_.size(); ++p)
-      for (const Link& l : links_[p]) n += refinement(int(p), l, threshold) != 0;
+      for (const Link& l : links_[p])
+        n += l.source < 0 ? cluster_link_above(int(p), l, threshold) : refinement(int(p), l, threshold) != 0;
+    for (size_t c = 0; c < cluster_links_.size(); ++c)
+      for (const Link& l : cluster_links_[c]) n += cluster_link_above(cluster_node(int(c)), l, threshold);
     return n;
   }
 
   double bytes() const {
     long long links = 0;
     for (const auto& v : links_) links += static_cast<long long>(v.capacity());
-    return double(elements_.capacity()) * sizeof(Element) + double(links_.capacity()) * sizeof(std::vector<Link>) +
-           double(links) * sizeof(Link);
+    for (const auto& v : cluster_links_) links += static_cast<long long>(v.capacity());
+    return double(elements_.capacity()) * sizeof(Element) +
+           double(links_.capacity() + cluster_links_.capacity()) * sizeof(std::vector<Link>) +
+           double(links) * sizeof(Link) + double(tree_.clusters.capacity()) * (sizeof(Cluster) + sizeof(Rgb) + 8) +
+           double(cluster_faces_.capacity()) * (sizeof(ClusterFace) + 3 * sizeof(int));
   }
 
   // Refines every link above the error with the present radiosity, the new links in turn,
@@ -318,10 +564,11 @@ struct HierarchicalRadiosity::Impl {
   long long refine() {
     const double threshold = opt_.error * mean_radiosity();
     long long split_count = 0;
+    std::vector<std::pair<int, int>> pending;
+    if (clustered_ && !stats_.stopped_by_memory) split_count += refine_cluster_links(threshold, pending);
     std::vector<int> receivers(elements_.size());
     for (size_t e = 0; e < receivers.size(); ++e) receivers[e] = int(e);
     while (!receivers.empty()) {
-      std::vector<std::pair<int, int>> pending;
       const int before = static_cast<int>(elements_.size());
       for (const int p : receivers) {
         // Taken out while its links are split: split() grows links_, which moves the lists.
@@ -329,7 +576,8 @@ struct HierarchicalRadiosity::Impl {
         size_t kept = 0;
         for (size_t k = 0; k < ls.size(); ++k) {
           const Link l = ls[k];
-          const int side = stats_.stopped_by_memory ? 0 : refinement(p, l, threshold);
+          // Cluster links (l.source < 0) were refined above (refine_cluster_links).
+          const int side = stats_.stopped_by_memory || l.source < 0 ? 0 : refinement(p, l, threshold);
           if (side == 0) {
             ls[kept++] = l;
             continue;
@@ -355,6 +603,7 @@ struct HierarchicalRadiosity::Impl {
       for (const auto& [p, q] : pending)
         if (receivers.empty() || receivers.back() != p) receivers.push_back(p);
       receivers.erase(std::unique(receivers.begin(), receivers.end()), receivers.end());
+      pending.clear();
       if (opt_.max_memory_bytes > 0.0 && bytes() > opt_.max_memory_bytes) stats_.stopped_by_memory = true;
     }
     return split_count;
@@ -368,9 +617,16 @@ struct HierarchicalRadiosity::Impl {
     Rgb h = above;
     double range = above_range;
     for (const Link& l : links_[size_t(e)]) {
-      const Rgb& bq = elements_[size_t(l.source)].radiosity;
-      h += double(l.factor) * bq;
-      range += 2.0 * double(l.error) * largest(bq);  // the link's kernel range over e (link())
+      const Rgb& bq = node_radiosity(l.source);
+      const double f = factor_at(e, l, normal(e));
+      h += f * bq;
+      // The link's kernel range over e (link()), or a cluster transfer's over the root.
+      range +=
+          (l.source >= 0
+               ? 2.0 * double(l.error)
+               : cluster_range_over_root(
+                     e, f, (node_centre(tree_, cluster_faces_, l.source) - elements_[size_t(e)].centroid).norm())) *
+          largest(bq);
     }
     if (el.leaf()) {
       const Rgb b = el.emission + el.reflectance * (h + el.direct);
@@ -399,7 +655,13 @@ struct HierarchicalRadiosity::Impl {
   void solve() {
     for (int it = 0; it < opt_.max_iterations; ++it) {
       double change = 0.0, top = 0.0;
-      for (int r = 0; r < roots_.size(); ++r) sweep(r, Rgb::Zero(), 0.0, change);
+      for (int r = 0; r < roots_.size(); ++r) {
+        Rgb above = Rgb::Zero();
+        double range = 0.0;
+        gather_clusters(r, elements_[size_t(r)].centroid, normal(r), above, &range, nullptr, nullptr);
+        sweep(r, above, range, change);
+      }
+      if (clustered_) pull_clusters();
       for (int r = 0; r < roots_.size(); ++r) top = std::max(top, largest(elements_[size_t(r)].radiosity));
       ++stats_.sweeps;
       stats_.residual = top > 0.0 ? change / top : 0.0;
@@ -429,8 +691,15 @@ struct HierarchicalRadiosity::Impl {
     s.direct.resize(n, 3);
     s.row_sums.resize(n);
     std::map<std::array<double, 3>, int> point_of;
-    long long links = 0;
-    for (const auto& v : links_) links += static_cast<long long>(v.size());
+    long long links = 0, cluster_links = 0;  // all, and those with a cluster at either end
+    for (const auto& v : links_) {
+      links += static_cast<long long>(v.size());
+      for (const Link& l : v) cluster_links += l.source < 0;
+    }
+    for (const auto& v : cluster_links_) {
+      links += static_cast<long long>(v.size());
+      cluster_links += static_cast<long long>(v.size());
+    }
     for (int i = 0; i < n; ++i) {
       const int leaf = leaves[size_t(i)];
       const Element& el = elements_[size_t(leaf)];
@@ -451,9 +720,11 @@ struct HierarchicalRadiosity::Impl {
       double row = 0.0;
       for (int e = leaf; e >= 0; e = elements_[size_t(e)].parent)
         for (const Link& l : links_[size_t(e)]) {
-          h += double(l.factor) * elements_[size_t(l.source)].radiosity;
-          row += l.factor;
+          const double f = factor_at(e, l, patch.normal);
+          h += f * node_radiosity(l.source);
+          row += f;
         }
+      gather_clusters(el.patch, el.centroid, patch.normal, h, nullptr, &row, nullptr);
       s.irradiance.row(i) = h.matrix().transpose();
       s.radiosity.row(i) = el.radiosity.matrix().transpose();
       s.direct.row(i) = el.direct.matrix().transpose();
@@ -462,6 +733,8 @@ struct HierarchicalRadiosity::Impl {
     stats_.elements = static_cast<int>(elements_.size());
     stats_.leaves = n;
     stats_.links = links;
+    stats_.cluster_links = cluster_links;
+    stats_.clusters = static_cast<int>(tree_.clusters.size());
     stats_.bytes = bytes();
     s.stats = stats_;
     return s;
@@ -476,6 +749,15 @@ struct HierarchicalRadiosity::Impl {
   std::vector<std::vector<Link>> links_;  // per receiver element
   HierarchicalStats stats_;
   std::vector<int> leaf_element_;  // per leaf of the solution: its element
+  // Clusters (clustered_: more roots than HierarchicalOptions::cluster_above).
+  bool clustered_ = false;
+  std::vector<ClusterFace> cluster_faces_;  // per root
+  ClusterTree tree_;
+  std::vector<std::vector<Link>> cluster_links_;  // per cluster, as receiver
+  std::vector<Rgb> cluster_radiosity_;            // per cluster: its roots' area-weighted mean
+  std::vector<double> cluster_spread_;            // per cluster: how much that varies over its roots
+  std::vector<double> cluster_low_;               // per cluster: the least of its roots' (largest channel)
+  std::vector<std::vector<int>> roots_of_face_;   // per scene face: its roots
 };
 
 HierarchicalRadiosity::HierarchicalRadiosity(const Scene& scene, const PatchMesh& roots, const Visibility* visibility,

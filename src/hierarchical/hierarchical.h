@@ -29,9 +29,15 @@
 //    (Gauss–Seidel across roots: later roots see the updated radiosity), to the solver's
 //    relative tolerance.
 //  - Refine with the solution, solve again, until no link needs refinement (rounds).
-//
-// What is not here yet: clustering (Smits, Arvo & Greenberg 1994), so the initial links are
-// every facing pair of root patches, quadratic in the input faces.
+//  - Above HierarchicalOptions::cluster_above roots, the first links are made down a cluster tree
+//    over the roots (clusters.h; Smits, Arvo & Greenberg, SIGGRAPH 1994) instead of between every
+//    facing pair of roots: a link joins two clusters (or a cluster and a root) where both are
+//    convex, nothing else lies in the shaft of their boxes, and the transfer's error bound times
+//    the radiosity it carries is within the same threshold as above (without the 0.1 floor: a
+//    cluster link's error reaches the output directly); else the larger side is split, down to
+//    pairs of roots, which are linked as above. Cluster links are refined the same way after
+//    each solve. A leaf gathers them through its root's enclosing clusters, each with the cosine
+//    of its own normal toward the source's centre.
 #pragma once
 
 #include <functional>
@@ -53,6 +59,10 @@ struct HierarchicalOptions {
   // Metres: an element whose longest edge is at most this is not split (0: 1/256 of the
   // scene's bounding diagonal).
   double min_edge = 0.0;
+  // Roots above which the first links are made down a cluster tree (clusters.h; Smits, Arvo &
+  // Greenberg 1994) instead of between every facing pair of roots; 0: always (two roots or
+  // more); negative: never. Default 512: below it the pairs are cheap and every link exact.
+  int cluster_above = 512;
   int max_rounds = 8;          // refine–solve rounds at most
   double tolerance = 1e-8;     // relative residual of a sweep (max |ΔB| / max B) to stop at
   int max_iterations = 10000;  // sweeps per solve
@@ -67,7 +77,9 @@ struct HierarchicalOptions {
 
 struct HierarchicalStats {
   int roots = 0, elements = 0, leaves = 0;
+  int clusters = 0;               // of the cluster tree (0 without one)
   long long links = 0;            // links of the final hierarchy
+  long long cluster_links = 0;    // of them, with a cluster at either end
   long long links_evaluated = 0;  // link form factors computed, refined ones included
   int rounds = 0;                 // refine–solve rounds
   int sweeps = 0;                 // Gauss–Seidel sweeps, all solves

@@ -66,6 +66,8 @@ nlohmann::json summary_json(const Scene& scene, const SolveSummary& s) {
     j["hierarchical"] = {{"error", h.error},
                          {"min_element_edge", h.min_edge},
                          {"roots", h.roots},
+                         {"clusters", h.clusters},
+                         {"cluster_links", h.cluster_links},
                          {"elements", h.elements},
                          {"leaves", h.leaves},
                          {"links", h.links},
@@ -161,9 +163,10 @@ std::string summary_table(const Scene& scene, const SolveSummary& s) {
   if (s.method == "hierarchical") {
     const HierarchicalStats& h = s.hierarchical;
     row("hierarchy") << "error " << h.error << ", elements down to " << std::setprecision(4) << h.min_edge
-                     << " m: " << h.roots << " roots, " << h.elements << " elements, " << h.leaves << " leaves, "
-                     << format_count(h.links) << " links (" << format_count(h.links_evaluated) << " evaluated), "
-                     << h.rounds << " rounds, " << format_bytes(h.bytes)
+                     << " m: " << h.roots << " roots, " << h.clusters << " clusters, " << h.elements << " elements, "
+                     << h.leaves << " leaves, " << format_count(h.links) << " links (" << format_count(h.cluster_links)
+                     << " from or to clusters; " << format_count(h.links_evaluated) << " evaluated), " << h.rounds
+                     << " rounds, " << format_bytes(h.bytes)
                      << (h.stopped_by_memory ? "; refinement stopped at the memory limit" : "")
                      << (h.stopped_by_rounds ? "; links still above the error after the last round" : "") << "\n";
   }

@@ -533,6 +533,7 @@ std::unique_ptr<HierarchicalRadiosity> solve_by_hierarchy(const Scene& scene, co
   HierarchicalOptions h;
   h.error = opt.hierarchical_error;
   h.min_edge = opt.min_element_edge;
+  h.cluster_above = opt.cluster_above;
   h.tolerance = opt.solver.tolerance;
   h.max_iterations = opt.solver.max_iterations;
   h.max_memory_bytes = opt.max_memory_bytes > 0.0 ? opt.max_memory_bytes : available_memory_bytes();

@@ -43,6 +43,7 @@ struct SolveOptions {
   // is the dense method's.
   double hierarchical_error = 1e-2;
   double min_element_edge = 0.0;
+  int cluster_above = 512;   // HierarchicalOptions::cluster_above
   PatchingOptions patching;  // patch size limits
   int quadrature = 1;        // receiver rule order, 1 = centroid
   double accuracy = 0.0;     // > 0: per-pair rule to this relative accuracy for
