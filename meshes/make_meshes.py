@@ -344,6 +344,19 @@ def write_meshed_cube(n, path):
     write_vs3(path, f"unit cube, {n} x {n} quads per wall, each its own surface (meshes/make_meshes.py)", surfaces)
 
 
+def write_meshed_furnace(h, path):
+    """A closed 4 x 3 x 2.5 m room (inward) with a block above its floor and a floating cube
+    (outward), every side cut into quads of edge <= h, one surface each: with every face emitting
+    and reflecting alike (`solve --emission 1 --reflectance 0.5`), B = E / (1 - rho) everywhere."""
+    boxes = [((0.0, 0.0, 0.0), (4.0, 3.0, 2.5), True, "room"),
+             ((1.5, 1.0, 0.25), (2.5, 2.0, 0.75), False, "block"),
+             ((0.5, 2.0, 1.0), (1.0, 2.5, 1.5), False, "cube")]
+    surfaces = [(q, name) for lo, hi, inward, name in boxes
+                for quad in box_quads(lo, hi, inward) for q in tessellate(quad, h)]
+    write_vs3(path, f"furnace room with two solids, quads of edge <= {h:g} m, each its own surface "
+              "(meshes/make_meshes.py)", surfaces)
+
+
 def write_street_canyons(h, path):
     write_vs3(path, f"street canyons, 3 x 3 buildings 20 x 20 x 15 m, streets 10 m, quads of edge <= {h:g} m "
               "(meshes/make_meshes.py)", street_canyons(h))
@@ -475,6 +488,8 @@ def main():
     parser.add_argument("--street-canyons", nargs=2, metavar=("H", "OUT"), help="write the street canyons as .vs3")
     parser.add_argument("--meshed-cube", nargs=2, metavar=("N", "OUT"), help="write the unit cube, N x N per wall, as .vs3")
     parser.add_argument("--street-canyon", nargs=2, metavar=("H", "OUT"), help="write one long street canyon as .vs3")
+    parser.add_argument("--meshed-furnace", nargs=2, metavar=("H", "OUT"),
+                        help="write a closed room with two solids, quads of edge <= H, as .vs3")
     parser.add_argument("--furnished-room", metavar="DIR",
                         help="write the bench's furnished room (181 quads) as DIR/furnished_room.obj and .mtl")
     parser.add_argument("--scanned-objects", nargs=3, metavar=("K", "RINGS", "OUT"),
@@ -496,7 +511,8 @@ def main():
     for given, size, write in ((args.meshed_cube, int, write_meshed_cube),
                                (args.street_canyon, float, write_street_canyon),
                                (args.street_canyons, float, write_street_canyons),
-                               (args.many_faces, float, write_many_faces_room)):
+                               (args.many_faces, float, write_many_faces_room),
+                               (args.meshed_furnace, float, write_meshed_furnace)):
         if given:
             write(size(given[0]), given[1])
             return

@@ -91,12 +91,11 @@ struct HierarchicalRadiosity::Impl {
     st.roots = roots_.size();
     st.error = opt_.error;
     st.min_edge = opt_.min_edge;
-    // Initial links: down the cluster tree from the top cluster with itself (link_nodes), or
+    // Initial links: down the cluster tree from the top cluster with itself (link_from_top), or
     // every facing pair of roots.
     std::vector<std::pair<int, int>> pending;
     if (clustered_) {
-      std::vector<int> occluders;
-      link_nodes(tree_.top(), tree_.top(), opt_.error * mean_radiosity(), pending, occluders);
+      link_from_top(opt_.error * mean_radiosity(), pending);
     } else {
       for (int p = 0; p < roots_.size(); ++p)
         for (int q = 0; q < roots_.size(); ++q)
@@ -329,40 +328,85 @@ struct HierarchicalRadiosity::Impl {
     return true;
   }
 
+  // What linking down the tree makes from one pair of nodes (link_nodes), kept apart per pair
+  // so that pairs run in parallel and their results join in the pairs' order.
+  struct TreeLinks {
+    std::vector<std::pair<int, int>> pending;  // pairs of roots, for evaluate()
+    std::vector<std::pair<int, Link>> made;    // cluster links, by receiver node
+    long long evaluated = 0;
+  };
+
   // Links receiver node a from source node b (not both roots): a cluster link where the
   // transfer is valid, unblocked and within the error; else down the tree, the larger side
   // first; pairs of roots go to `pending` (element links, evaluate()).
-  void link_nodes(int a, int b, double threshold, std::vector<std::pair<int, int>>& pending,
-                  std::vector<int>& occluders) {
+  void link_nodes(int a, int b, double threshold, TreeLinks& out, std::vector<int>& occluders) const {
     if (a >= 0 && b >= 0) {
-      if (a != b && facing(a, b)) pending.emplace_back(a, b);
+      if (a != b && facing(a, b)) out.pending.emplace_back(a, b);
       return;
     }
     if (a == b) {  // a cluster with itself: every pair of its children
       const Cluster c = cluster(a);
       for (const int x : c.children)
-        for (const int y : c.children) link_nodes(x, y, threshold, pending, occluders);
+        for (const int y : c.children) link_nodes(x, y, threshold, out, occluders);
       return;
     }
     if ((a >= 0 && !in_front_of_root(a, b)) || (b >= 0 && !in_front_of_root(b, a))) return;
-    ++stats_.links_evaluated;
+    ++out.evaluated;
     const ClusterTransfer t = cluster_transfer(tree_, cluster_faces_, a, b);
     if (t.valid) {
       const Link l{b, 0, float(t.factor), float(t.error), 1.0f};
       if (!cluster_link_above(a, l, threshold) && unblocked(a, b, occluders)) {
-        (a < 0 ? cluster_links_[size_t(cluster_of_node(a))] : links_[size_t(a)]).push_back(l);
+        out.made.emplace_back(a, l);
         return;
       }
     }
-    split_cluster_link(a, b, threshold, pending, occluders);
+    split_cluster_link(a, b, threshold, out, occluders);
   }
-  void split_cluster_link(int a, int b, double threshold, std::vector<std::pair<int, int>>& pending,
-                          std::vector<int>& occluders) {
+  void split_cluster_link(int a, int b, double threshold, TreeLinks& out, std::vector<int>& occluders) const {
     if (split_side(a, b) == 1) {
-      for (const int x : cluster(a).children) link_nodes(x, b, threshold, pending, occluders);
+      for (const int x : cluster(a).children) link_nodes(x, b, threshold, out, occluders);
     } else {
-      for (const int y : cluster(b).children) link_nodes(a, y, threshold, pending, occluders);
+      for (const int y : cluster(b).children) link_nodes(a, y, threshold, out, occluders);
     }
+  }
+
+  // link_nodes (or, with `split`, split_cluster_link) on every pair, in parallel; the cluster
+  // links made are added to their receivers' lists and the pairs of roots to `pending`, in the
+  // pairs' order (the same hierarchy for any thread count).
+  void link_down(const std::vector<std::pair<int, int>>& pairs, bool split, double threshold,
+                 std::vector<std::pair<int, int>>& pending) {
+    constexpr size_t kChunk = 1 << 14;
+    for (size_t begin = 0; begin < pairs.size(); begin += kChunk) {
+      const int n = static_cast<int>(std::min(kChunk, pairs.size() - begin));
+      std::vector<TreeLinks> out(static_cast<size_t>(n));
+#pragma omp parallel
+      {
+        std::vector<int> occluders;
+#pragma omp for schedule(dynamic, 16)
+        for (int k = 0; k < n; ++k) {
+          const auto [a, b] = pairs[begin + size_t(k)];
+          if (split) split_cluster_link(a, b, threshold, out[size_t(k)], occluders);
+          else link_nodes(a, b, threshold, out[size_t(k)], occluders);
+        }
+      }
+      for (const TreeLinks& t : out) {
+        pending.insert(pending.end(), t.pending.begin(), t.pending.end());
+        for (const auto& [receiver, l] : t.made)
+          (receiver < 0 ? cluster_links_[size_t(cluster_of_node(receiver))] : links_[size_t(receiver)]).push_back(l);
+        stats_.links_evaluated += t.evaluated;
+      }
+    }
+  }
+
+  // The first links: a cluster with itself links its children pairwise, so the pairs of
+  // different children of every cluster are where linking down the tree starts.
+  void link_from_top(double threshold, std::vector<std::pair<int, int>>& pending) {
+    std::vector<std::pair<int, int>> pairs;
+    for (const Cluster& c : tree_.clusters) {
+      pairs.emplace_back(c.children[0], c.children[1]);
+      pairs.emplace_back(c.children[1], c.children[0]);
+    }
+    link_down(pairs, false, threshold, pending);
   }
 
   // Cluster links above the error with the present radiosity, split down the tree; the pairs of
@@ -380,8 +424,7 @@ struct HierarchicalRadiosity::Impl {
     };
     for (size_t c = 0; c < cluster_links_.size(); ++c) take_out(cluster_node(int(c)), cluster_links_[c]);
     for (int r = 0; r < roots_.size(); ++r) take_out(r, links_[size_t(r)]);
-    std::vector<int> occluders;
-    for (const auto& [a, b] : split) split_cluster_link(a, b, threshold, pending, occluders);
+    link_down(split, true, threshold, pending);
     return static_cast<long long>(split.size());
   }
 
