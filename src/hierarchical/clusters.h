@@ -3,8 +3,8 @@
 // of faces (quadratic in the input).
 //
 // Smits, Arvo & Greenberg, "A Clustering Algorithm for Radiosity in Complex Environments",
-// SIGGRAPH 1994: light is exchanged between clusters through links whose error is bounded, and
-// refined down the cluster tree, then down the elements, where the bound is too large.
+// SIGGRAPH 1994: light is exchanged between clusters through links whose error is estimated, and
+// refined down the cluster tree, then down the elements, where the estimate is too large.
 //
 // The transfer from a source cluster B to a receiver point x (normal n_x), cluster_factor_at:
 // B seen as one flat emitter of its vector area N_B = Σ_q A_q n_q at its area centroid c_B
@@ -74,11 +74,12 @@ struct ClusterTree {
 };
 
 // Splits the faces at the median of their keys along the longest axis of the keys' box, down to
-// single faces; a face's key is its centroid and its normal times half the centroids' bounding
-// diagonal, so that faces turned differently part near the top (Kay & Kajiya's bounding volume hierarchy, "Ray Tracing
-// Complex Scenes", SIGGRAPH 1986, built top-down). `tolerance`, metres: how far in front of a plane a corner may lie
-// and still count as on it (convexity). A cluster of more than kMaxConvexPlanes distinct face
-// planes is not tested and counts as not convex (the test's cost then grows with each face).
+// single faces (a bounding volume hierarchy built top-down, as Kay & Kajiya, "Ray Tracing Complex
+// Scenes", SIGGRAPH 1986); a face's key is its centroid and its normal times half the centroids'
+// bounding diagonal, so that faces turned differently part near the top. `tolerance`, metres:
+// how far in front of a plane a corner may lie and still count as on it (convexity). A cluster
+// of more than kMaxConvexPlanes distinct face planes is not tested and counts as not convex (the
+// test's cost would otherwise grow with each face).
 inline constexpr int kMaxConvexPlanes = 32;
 ClusterTree build_cluster_tree(const std::vector<ClusterFace>& faces, double tolerance);
 

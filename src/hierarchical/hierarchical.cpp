@@ -301,11 +301,11 @@ struct HierarchicalRadiosity::Impl {
     return node_radius(tree_, cluster_faces_, a) >= node_radius(tree_, cluster_faces_, b) ? 1 : 2;
   }
 
-  // The error a cluster link leaves at the receiver: the transfer's bound times the radiosity it
-  // carries, and the source's spread times its factor (as e_source of element links). Held to
-  // the threshold times the link's own factor, without the element links' floor: the output
-  // gathers a cluster link as it is, so its error is not one the exact kernel at each point
-  // removes, and the links of one receiver must not add up past ε.
+  // The error a cluster link leaves at the receiver: the transfer's error estimate times the
+  // radiosity it carries, and the source's spread times its factor (as e_source of element
+  // links). Held to the threshold times the link's own factor, without the element links'
+  // floor: the output gathers a cluster link as it is, so its error is not one the exact kernel
+  // at each point removes, and the links of one receiver must not add up past ε.
   bool cluster_link_above(int a, const Link& l, double threshold) const {
     const double rho = a >= 0 ? largest(elements_[size_t(a)].reflectance) : cluster(a).reflectance;
     const double e = std::max(rho * largest(node_radiosity(l.source)) * double(l.error),

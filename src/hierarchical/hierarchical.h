@@ -32,12 +32,13 @@
 //  - Above HierarchicalOptions::cluster_above roots, the first links are made down a cluster tree
 //    over the roots (clusters.h; Smits, Arvo & Greenberg, SIGGRAPH 1994) instead of between every
 //    facing pair of roots: a link joins two clusters (or a cluster and a root) where both are
-//    convex, nothing else lies in the shaft of their boxes, and the transfer's error bound times
-//    the radiosity it carries is within the same threshold as above (without the 0.1 floor: a
-//    cluster link's error reaches the output directly); else the larger side is split, down to
-//    pairs of roots, which are linked as above. Cluster links are refined the same way after
-//    each solve. A leaf gathers them through its root's enclosing clusters, each with the cosine
-//    of its own normal toward the source's centre.
+//    convex, nothing else lies in the shaft of their boxes, every source face turns toward the
+//    receiver, they lie more than twice their radii apart, and the transfer's error estimate
+//    times the radiosity it carries is within the threshold above held to the link's own factor
+//    (without the 0.1 floor: a cluster link's error reaches the output directly); else the
+//    larger side is split, down to pairs of roots, which are linked as above. Cluster links are
+//    refined the same way after each solve. A leaf gathers them through its root's enclosing
+//    clusters, each evaluated at the receiving point (clusters.h cluster_factor_at).
 #pragma once
 
 #include <functional>
