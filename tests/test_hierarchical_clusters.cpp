@@ -293,42 +293,61 @@ TEST(HierarchicalClusters, ShadowsAgreeWithTheSolveWithoutClusters) {
   EXPECT_LT(max / mean, 5 * error);
 }
 
-// A shelf under a small lamp 5 m above: two plates, the lower one (3 × 3 faces) wholly in the
-// upper one's shadow. Their faces all turn toward the lamp, and nothing else lies between, so
-// only a shelf cluster's convexity (it is not: the upper plate lies in front of the lower one's
-// plane) keeps the lamp from being linked to it as if nothing of it shaded the rest. A large ε
-// lets clusters of the upper plate and parts of the lower one pass the error test.
-TEST(HierarchicalClusters, AShadowInsideAClusterIsKept) {
-  pm::Scene s;
-  s.source = "shelf";
-  pm::Material grey, lamp;
-  grey.name = "grey";
-  grey.reflectance = pm::Rgb::Constant(0.5);
+namespace {
+
+// Appends a horizontal square of `size` centred over (0.5, 0.5) at height z, cut into n × n quads,
+// each its own face, turned up or down; the scene's own materials and groups are kept.
+void add_plate(pm::Scene& s, double z, double size, int n, bool up, int material) {
+  const double shift = 0.5 - size / 2;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const int v = int(s.vertices.size());
+      const double x0 = shift + size * i / n, x1 = shift + size * (i + 1) / n, y0 = shift + size * j / n,
+                   y1 = shift + size * (j + 1) / n;
+      for (const pm::Vec3& p : {pm::Vec3(x0, y0, z), pm::Vec3(x1, y0, z), pm::Vec3(x1, y1, z), pm::Vec3(x0, y1, z)})
+        s.vertices.push_back(p);
+      s.faces.push_back(up ? pm::Face{{v, v + 1, v + 2, v + 3}, material, 0, int(s.faces.size())}
+                           : pm::Face{{v, v + 3, v + 2, v + 1}, material, 0, int(s.faces.size())});
+    }
+}
+
+// A scene without faces, its materials grey (0: reflects 0.5) and lamp (1: emits 1).
+pm::Scene grey_and_lamp() {
+  pm::Scene s = builders::unit_cube(0.5, 0.0);
+  s.vertices.clear();
+  s.faces.clear();
+  pm::Material lamp;
   lamp.name = "lamp";
   lamp.emission = pm::Rgb::Constant(1.0);
-  s.materials = {grey, lamp};
-  s.groups = {"shelf"};
-  auto plate = [&](double z, double size, int n, bool up, int material) {
-    for (int i = 0; i < n; ++i)
-      for (int j = 0; j < n; ++j) {
-        const int v = int(s.vertices.size());
-        const double x0 = size * i / n, x1 = size * (i + 1) / n, y0 = size * j / n, y1 = size * (j + 1) / n;
-        const double shift = 0.5 - size / 2;  // centred over (0.5, 0.5)
-        for (const pm::Vec3& p : {pm::Vec3(x0, y0, z), pm::Vec3(x1, y0, z), pm::Vec3(x1, y1, z), pm::Vec3(x0, y1, z)})
-          s.vertices.push_back(p + pm::Vec3(shift, shift, 0));
-        s.faces.push_back(up ? pm::Face{{v, v + 1, v + 2, v + 3}, material, 0, int(s.faces.size())}
-                             : pm::Face{{v, v + 3, v + 2, v + 1}, material, 0, int(s.faces.size())});
-      }
-  };
-  plate(0.9, 1.0, 3, true, 0);   // faces 0..8: the lower plate, in the upper one's shadow
-  plate(1.0, 1.0, 1, true, 0);   // face 9: the upper plate, one face (an occluder of its own)
-  plate(6.0, 0.5, 1, false, 1);  // face 10: the lamp, turned down
+  s.materials.push_back(lamp);
+  return s;
+}
+
+// The hierarchy with clusters from two faces on, and a large ε (0.3): clusters of a few faces
+// pass the error test.
+pm::SolveResult solve_clustered(const pm::Scene& s, double min_element) {
   pm::SolveOptions opt;
   opt.method = pm::SolveMethod::Hierarchical;
   opt.hierarchical_error = 0.3;
-  opt.min_element_edge = 0.05;
+  opt.min_element_edge = min_element;
   opt.cluster_above = 0;
-  const pm::SolveResult r = pm::solve_scene(s, opt);
+  return pm::solve_scene(s, opt);
+}
+
+}  // namespace
+
+// A shelf under a small lamp 5 m above: two plates, the lower one (3 × 3 faces) wholly in the
+// upper one's shadow. Their faces all turn toward the lamp, and nothing else lies between, so
+// only a shelf cluster's convexity (it is not: the upper plate lies in front of the lower one's
+// plane) keeps the lamp from being linked to it as if nothing of it shaded the rest (the large ε
+// of solve_clustered lets clusters of the upper plate and parts of the lower one pass the error
+// test).
+TEST(HierarchicalClusters, AShadowInsideAClusterIsKept) {
+  pm::Scene s = grey_and_lamp();
+  add_plate(s, 0.9, 1.0, 3, true, 0);   // faces 0..8: the lower plate, in the upper one's shadow
+  add_plate(s, 1.0, 1.0, 1, true, 0);   // face 9: the upper plate, one face (an occluder of its own)
+  add_plate(s, 6.0, 0.5, 1, false, 1);  // face 10: the lamp, turned down
+  const pm::SolveResult r = solve_clustered(s, 0.05);
   EXPECT_EQ(r.summary.hierarchical.clusters, 10);
   double upper = 0.0, lower = 0.0;
   for (long i = 0; i < r.radiosity.rows(); ++i) {
@@ -340,4 +359,31 @@ TEST(HierarchicalClusters, AShadowInsideAClusterIsKept) {
               r.summary.hierarchical.cluster_links);
   EXPECT_GT(upper, 1e-3);
   EXPECT_LT(lower, 1e-12);
+}
+
+// A plate of 3 × 3 faces under a small lamp 5 m above, and between them a panel that only
+// obstructs (a View3D `O` surface: no patches, no roots): the plate's cluster and the lamp may
+// not be linked through the panel, which is no face of either.
+TEST(HierarchicalClusters, AnObstructionBetweenClustersBlocksTheirLink) {
+  for (const bool obstructed : {false, true}) {
+    pm::Scene s = grey_and_lamp();
+    add_plate(s, 0.0, 1.0, 3, true, 0);   // faces 0..8: the plate, turned up
+    add_plate(s, 5.0, 0.5, 1, false, 1);  // face 9: the lamp, turned down
+    if (obstructed) {
+      add_plate(s, 2.5, 3.0, 1, true, 0);  // face 10: the panel, wider than the plate
+      s.faces.back().obstruction_only = true;
+    }
+    const pm::SolveResult r = solve_clustered(s, 0.2);
+    double plate = 0.0;
+    for (long i = 0; i < r.radiosity.rows(); ++i)
+      if (r.mesh.patches[size_t(i)].face < 9) plate = std::max(plate, r.radiosity(i, 0));
+    std::printf("plate under a lamp%s: up to %.4g, %lld cluster links\n", obstructed ? ", obstructed" : "", plate,
+                r.summary.hierarchical.cluster_links);
+    if (obstructed) {
+      EXPECT_EQ(plate, 0.0);
+    } else {
+      EXPECT_GT(plate, 1e-3);
+      EXPECT_GT(r.summary.hierarchical.cluster_links, 0);  // the plate's cluster and the lamp, linked
+    }
+  }
 }

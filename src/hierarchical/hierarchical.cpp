@@ -314,7 +314,8 @@ struct HierarchicalRadiosity::Impl {
   }
 
   // Nothing can block a segment between a and b: both convex (clusters.h) and the shaft of
-  // their boxes holds no occluder but those made of their own faces.
+  // their boxes holds no occluder but those made of their own faces (a face without roots, one
+  // that only obstructs, is never theirs).
   bool unblocked(int a, int b, std::vector<int>& occluders) const {
     if ((a < 0 && !cluster(a).convex) || (b < 0 && !cluster(b).convex)) return false;
     if (!vis_) return true;
@@ -322,9 +323,11 @@ struct HierarchicalRadiosity::Impl {
     const int na = node_points(a, pa), nb = node_points(b, pb);
     vis_->culler().occluders(pa, na, pb, nb, occluders);
     for (const int o : occluders)
-      for (const int f : vis_->culler().occluder_faces(o))
+      for (const int f : vis_->culler().occluder_faces(o)) {
+        if (roots_of_face_[size_t(f)].empty()) return false;
         for (const int r : roots_of_face_[size_t(f)])
           if (!node_holds(a, r) && !node_holds(b, r)) return false;
+      }
     return true;
   }
 
