@@ -186,7 +186,7 @@ double cluster_factor_at(const Vec3& x, const Vec3& normal, const Vec3& centre, 
   const double d2 = w.squaredNorm();
   if (!(d2 > 0.0)) return 0.0;
   const Vec3 u = w / std::sqrt(d2);
-  // Cohen & Wallace 1993, eq. 4.15, with B's faces at its centroid (clusters.h).
+  // Cohen & Wallace 1993, ch. 4: the differential-area kernel, with B's faces at its centroid (clusters.h).
   return std::max(0.0, normal.dot(u)) * std::max(0.0, -vector_area.dot(u)) / (M_PI * d2);
 }
 

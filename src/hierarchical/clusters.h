@@ -9,7 +9,8 @@
 // The transfer from a source cluster B to a receiver point x (normal n_x), cluster_factor_at:
 // B seen as one flat emitter of its vector area N_B = Σ_q A_q n_q at its area centroid c_B
 // (distance d, direction u = (c_B − x) / d), with the point-to-point kernel cos θ_x cos θ_q / (π r²)
-// (Cohen & Wallace, "Radiosity and Realistic Image Synthesis", 1993, eq. 4.15):
+// (Cohen & Wallace, "Radiosity and Realistic Image Synthesis", 1993, ch. 4, the form factor
+// between two differential areas):
 //     F(dA_x <- B) ≈ max(0, n_x · u) · max(0, −N_B · u) / (π d²)
 // When every face of B faces every point of the receiver (checked per face: n_q · (c_A − c_q) > r_A),
 // Σ_q A_q cos θ_q = −N_B · u exactly for a direction u, so the error is that of taking B's faces
