@@ -1,11 +1,12 @@
-// The pipeline folder (src/pipeline): the memory estimate before patching, and the refusal of a
-// run that cannot fit before anything grows with the patch count.
+// The pipeline folder (src/pipeline): the memory estimate before patching, the refusal of a
+// run that cannot fit before anything grows with the patch count, and the text summary.
 #include <gtest/gtest.h>
 
 #include <string>
 
 #include "patching/patching.h"
 #include "pipeline/memory.h"
+#include "pipeline/report.h"
 #include "pipeline/solve.h"
 #include "scene/scene.h"
 #include "scene_builders.h"
@@ -71,4 +72,25 @@ TEST(PipelineMemory, SolveRefusesAHugePatchCountBeforePatching) {
   o.patching.max_edge = 0.01;  // 60,000 patches: 29 GB dense double, 14 GB float
   o.max_memory_bytes = 64.0 * 1048576;
   EXPECT_THROW(solve_scene(builders::unit_cube(), o), Error);
+}
+
+// The text summary names what the method did: the dense method its matrix (pairs, factors,
+// storage, memory estimate), the hierarchical one its hierarchy and the memory limit only; it
+// fills no matrix, so rows of a dense fill would be zeros that look like results.
+TEST(PipelineReport, SummaryRowsFollowTheMethod) {
+  const Scene cube = builders::cube_floor_emitting(0.5);
+  SolveOptions o;
+  o.patching.max_edge = 0.5;
+  const std::string dense = summary_table(cube, solve_scene(cube, o).summary);
+  o.method = SolveMethod::Hierarchical;
+  o.hierarchical_error = 0.3;
+  const std::string hierarchical = summary_table(cube, solve_scene(cube, o).summary);
+  for (const std::string row : {"  pairs ", "  form factors ", "  matrix ", "  memory estimate "}) {
+    EXPECT_NE(dense.find(row), std::string::npos) << row << "\n" << dense;
+    EXPECT_EQ(hierarchical.find(row), std::string::npos) << row << "\n" << hierarchical;
+  }
+  EXPECT_EQ(dense.find("  hierarchy "), std::string::npos) << dense;
+  EXPECT_NE(hierarchical.find("  hierarchy "), std::string::npos) << hierarchical;
+  EXPECT_NE(hierarchical.find("  memory limit "), std::string::npos) << hierarchical;
+  EXPECT_NE(hierarchical.find("  energy imbalance "), std::string::npos) << hierarchical;
 }

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <numeric>
 
 #include "formfactors/formfactors.h"
@@ -393,8 +394,8 @@ TEST(VisibilityScenes, PointVisibilityPerTileEqualsClippingEachPatch) {
     int step;
   };
   std::vector<Case> cases;
-  cases.push_back({load_scene(mesh_path("cornell_box.obj")), 0.15, 5});
-  cases.push_back({validation::bench_room_scene(), 0.3, 13});
+  cases.push_back({load_scene(mesh_path("cornell_box.obj")), 0.15, 40});
+  cases.push_back({validation::bench_room_scene(), 0.3, 26});
   // A scanned object (a closed solid that is not convex) in a room: its back faces are dropped
   // for the points outside it, on it (centroids, by their face) and at its convex vertices.
   Scene scanned = builders::unit_cube();
@@ -459,6 +460,9 @@ TEST(VisibilityScenes, PointVisibilityPerTileEqualsClippingEachPatch) {
           }
         }
       }
+      std::printf("%s culling, %d patches: %d pairs checked, %d shadowed, %d partly, tile clear %d, hidden %d\n",
+                  culling == PointCulling::Cones ? "cone" : "tree", mesh.size(), checked, shadowed, partly, tile_clear,
+                  tile_hidden);
       EXPECT_GT(checked, culling == PointCulling::Cones ? 20000 : 6000);
       EXPECT_GT(shadowed, 30);
       EXPECT_GT(partly, 30);

@@ -172,32 +172,41 @@ std::string summary_table(const Scene& scene, const SolveSummary& s) {
   }
   row("patches") << s.patches << " (area " << std::setprecision(4) << s.min_patch_area << " .. " << s.max_patch_area
                  << " m²)\n";
-  row("pairs") << s.fill.pairs_evaluated << " evaluated, " << s.fill.pairs_backfacing << " skipped back-facing, "
-               << s.fill.pairs_occluded << " fully occluded\n";
-  if (s.fill.pairs_tested)
-    row("shaft culling") << s.fill.pairs_culled << " of " << s.fill.pairs_tested << " pairs need no visibility ("
-                         << std::setprecision(3) << 100.0 * s.fill.pairs_culled / s.fill.pairs_tested << "%)\n";
-  row("form factors") << "F in [" << std::setprecision(3) << s.checks.min_entry << ", " << s.checks.max_entry
-                      << "], row sums " << std::setprecision(10) << s.checks.min_row_sum << " .. "
-                      << s.checks.max_row_sum;
-  if (s.checks.reciprocity_error >= 0.0) o << ", reciprocity " << std::setprecision(3) << s.checks.reciprocity_error;
-  else o << ", reciprocity not measured (no MPI rank holds both F_ij and F_ji)";
-  o << "\n";
+  // The hierarchy fills no matrix: its links, their count and bytes are in the "hierarchy" row.
+  const bool matrix = s.method != "hierarchical";
+  if (matrix) {
+    row("pairs") << s.fill.pairs_evaluated << " evaluated, " << s.fill.pairs_backfacing << " skipped back-facing, "
+                 << s.fill.pairs_occluded << " fully occluded\n";
+    if (s.fill.pairs_tested)
+      row("shaft culling") << s.fill.pairs_culled << " of " << s.fill.pairs_tested << " pairs need no visibility ("
+                           << std::setprecision(3) << 100.0 * s.fill.pairs_culled / s.fill.pairs_tested << "%)\n";
+    row("form factors") << "F in [" << std::setprecision(3) << s.checks.min_entry << ", " << s.checks.max_entry
+                        << "], row sums " << std::setprecision(10) << s.checks.min_row_sum << " .. "
+                        << s.checks.max_row_sum;
+    if (s.checks.reciprocity_error >= 0.0) o << ", reciprocity " << std::setprecision(3) << s.checks.reciprocity_error;
+    else o << ", reciprocity not measured (no MPI rank holds both F_ij and F_ji)";
+    o << "\n";
+  }
   row("visibility") << s.visibility_mode << " — " << s.visibility_reason << "\n";
   if (!s.ray_sampling.empty())
     row("rays") << s.fill.rays_cast + s.vertex_rays_cast << " cast (" << s.ray_sampling
                 << "); estimated error of a row sum from the rays, max " << std::setprecision(3)
                 << s.fill.max_row_ray_error << "\n";
-  if (s.fill.pairs_gauss + s.fill.pairs_adaptive + s.fill.pairs_exact_rectangles > 0)
-    row("pair rules") << "accuracy " << s.accuracy << ": " << s.fill.pairs_gauss << " Gauss (far), "
-                      << s.fill.pairs_adaptive << " adaptive (near/touching), " << s.fill.pairs_exact_rectangles
-                      << " exact (aligned rectangles), " << s.fill.pairs_fixed_rule << " fixed-rule (occluded)\n";
-  else row("quadrature") << s.quadrature << (s.quadrature == 1 ? " (centroid)" : " (Gauss)") << "\n";
-  row("matrix") << s.matrix_storage << ", " << format_bytes(s.matrix_bytes) << " (" << s.matrix_storage_reason << ")\n";
-  row("memory estimate") << format_bytes(s.estimated_bytes) << " for this run; " << format_bytes(s.memory.dense_bytes)
-                         << " dense, " << format_bytes(s.memory.sparse_bytes) << " sparse ("
-                         << format_count(s.memory.nonzero_pairs) << " pairs facing); limit "
-                         << format_bytes(s.memory_limit_bytes) << " (" << s.memory_limit_source << ")\n";
+  if (matrix) {
+    if (s.fill.pairs_gauss + s.fill.pairs_adaptive + s.fill.pairs_exact_rectangles > 0)
+      row("pair rules") << "accuracy " << s.accuracy << ": " << s.fill.pairs_gauss << " Gauss (far), "
+                        << s.fill.pairs_adaptive << " adaptive (near/touching), " << s.fill.pairs_exact_rectangles
+                        << " exact (aligned rectangles), " << s.fill.pairs_fixed_rule << " fixed-rule (occluded)\n";
+    else row("quadrature") << s.quadrature << (s.quadrature == 1 ? " (centroid)" : " (Gauss)") << "\n";
+    row("matrix") << s.matrix_storage << ", " << format_bytes(s.matrix_bytes) << " (" << s.matrix_storage_reason
+                  << ")\n";
+    row("memory estimate") << format_bytes(s.estimated_bytes) << " for this run; " << format_bytes(s.memory.dense_bytes)
+                           << " dense, " << format_bytes(s.memory.sparse_bytes) << " sparse ("
+                           << format_count(s.memory.nonzero_pairs) << " pairs facing); limit "
+                           << format_bytes(s.memory_limit_bytes) << " (" << s.memory_limit_source << ")\n";
+  } else {
+    row("memory limit") << format_bytes(s.memory_limit_bytes) << " (" << s.memory_limit_source << ")\n";
+  }
   row("solver") << method_name(s.solver.method) << ", " << s.solver.iterations
                 << (s.solver.method == SolverMethod::GaussSeidel || s.solver.method == SolverMethod::Sor ? " sweeps"
                     : s.solver.method == SolverMethod::Direct                                            ? " LU solves"

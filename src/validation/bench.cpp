@@ -349,7 +349,7 @@ Scene bench_room_many_faces_scene(double h) {
 
 std::vector<BenchRow> run_bench(const BenchOptions& opt) {
   const Scene cube = bench_cube_scene(), room = bench_room_scene();
-  const double faces_edge = opt.quick ? 0.5 : 0.2;
+  const double faces_edge = opt.quick ? 1.0 : 0.2;
   const Scene room_faces = bench_room_many_faces_scene(faces_edge);
   std::vector<Case> cases;
   for (int n : {8, 16, 32}) {
