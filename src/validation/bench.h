@@ -17,7 +17,7 @@
 //                      outward-facing box; patch edges chosen for N ≈ 1,500, 6,000 and 22,000
 //                      (the last not in quick mode). One "solve" row each (visibility auto).
 //   room-faces         the same room as a thermal engineer's or a CAD export's mesh: every face
-//                      cut into quads of edge <= 0.2 m (0.5 m in quick mode), each quad its own
+//                      cut into quads of edge <= 0.2 m (1 m in quick mode), each quad its own
 //                      input face (bench_room_many_faces_scene). One "viewfactors" row at the
 //                      default accuracy, one patch per face (what `viewfactors --by face` fills).
 // No timing is asserted anywhere: the numbers are for reading, `quick` is a crash check.
