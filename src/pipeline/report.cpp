@@ -172,9 +172,13 @@ std::string summary_table(const Scene& scene, const SolveSummary& s) {
   }
   row("patches") << s.patches << " (area " << std::setprecision(4) << s.min_patch_area << " .. " << s.max_patch_area
                  << " m²)\n";
+  row("visibility") << s.visibility_mode << " — " << s.visibility_reason << "\n";
+  if (!s.ray_sampling.empty())
+    row("rays") << s.fill.rays_cast + s.vertex_rays_cast << " cast (" << s.ray_sampling
+                << "); estimated error of a row sum from the rays, max " << std::setprecision(3)
+                << s.fill.max_row_ray_error << "\n";
   // The hierarchy fills no matrix: its links, their count and bytes are in the "hierarchy" row.
-  const bool matrix = s.method != "hierarchical";
-  if (matrix) {
+  if (s.method != "hierarchical") {
     row("pairs") << s.fill.pairs_evaluated << " evaluated, " << s.fill.pairs_backfacing << " skipped back-facing, "
                  << s.fill.pairs_occluded << " fully occluded\n";
     if (s.fill.pairs_tested)
@@ -186,13 +190,6 @@ std::string summary_table(const Scene& scene, const SolveSummary& s) {
     if (s.checks.reciprocity_error >= 0.0) o << ", reciprocity " << std::setprecision(3) << s.checks.reciprocity_error;
     else o << ", reciprocity not measured (no MPI rank holds both F_ij and F_ji)";
     o << "\n";
-  }
-  row("visibility") << s.visibility_mode << " — " << s.visibility_reason << "\n";
-  if (!s.ray_sampling.empty())
-    row("rays") << s.fill.rays_cast + s.vertex_rays_cast << " cast (" << s.ray_sampling
-                << "); estimated error of a row sum from the rays, max " << std::setprecision(3)
-                << s.fill.max_row_ray_error << "\n";
-  if (matrix) {
     if (s.fill.pairs_gauss + s.fill.pairs_adaptive + s.fill.pairs_exact_rectangles > 0)
       row("pair rules") << "accuracy " << s.accuracy << ": " << s.fill.pairs_gauss << " Gauss (far), "
                         << s.fill.pairs_adaptive << " adaptive (near/touching), " << s.fill.pairs_exact_rectangles
