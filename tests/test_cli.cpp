@@ -327,7 +327,7 @@ TEST(Cli, CreaseAngleJoinsTheSplitWallsPoints) {
   EXPECT_EQ(photometria::read_vtu(out).points.size(), h["output_points"].get<size_t>());
 }
 
-// `--method hierarchical`: the leaves are the cells, the summary says what the hierarchy did,
+// `--method hierarchical`: the leaves are the cells (cut at T-junctions), the summary says what the hierarchy did,
 // the arrays are those of the dense method; a method that does not exist is refused.
 TEST(Cli, HierarchicalMethodWritesTheLeavesAndReportsTheHierarchy) {
   const std::string out = (scratch() / "cornell_hierarchical.vtu").string();
@@ -344,7 +344,8 @@ TEST(Cli, HierarchicalMethodWritesTheLeavesAndReportsTheHierarchy) {
   EXPECT_TRUE(s["solver"]["converged"].get<bool>());
   EXPECT_LT(s["energy_w"]["relative_imbalance"].get<double>(), 0.1);
   const VtuGrid g = photometria::read_vtu(out);
-  EXPECT_EQ(g.cells.size(), h["leaves"].get<size_t>());
+  // Leaves with a finer neighbour's corners inside an edge are written as triangles (output_cells.h).
+  EXPECT_GT(g.cells.size(), h["leaves"].get<size_t>());
   for (const std::string name : {"radiosity", "irradiance"})
     for (double v : array(g.point_arrays, name).values) ASSERT_TRUE(std::isfinite(v) && v >= 0) << name;
 
@@ -390,7 +391,7 @@ TEST(Cli, AutoMethodIsDenseWhenItFitsAndHierarchicalWhenNot) {
   reason = s["method_reason"].get<std::string>();
   EXPECT_NE(reason.find(", over --max-memory is 256 MiB"), std::string::npos) << reason;
   EXPECT_EQ(s["hierarchical"]["roots"].get<int>(), s["faces"].get<int>());
-  EXPECT_EQ(photometria::read_vtu(out).cells.size(), s["hierarchical"]["leaves"].get<size_t>());
+  EXPECT_GE(photometria::read_vtu(out).cells.size(), s["hierarchical"]["leaves"].get<size_t>());
 }
 
 // OBJ vn through the command line: the furnace cube whose corners each give all three faces one

@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "distributed/fill_stats.h"
+#include "pipeline/output_cells.h"
 
 namespace photometria {
 namespace {
@@ -23,16 +24,23 @@ nlohmann::json rgb_json(const Rgb& v) { return {v[0], v[1], v[2]}; }
 VtuGrid result_grid(const Scene& scene, const SolveResult& r) {
   VtuGrid g;
   for (const OutputPoint& p : r.points) g.points.push_back(p.position);
-  g.cells = r.cells;
+  // Patches cut at T-junctions (output_cells.h) repeat their values in each of their pieces.
+  OutputCells cells = conforming_cells(scene, r);
+  g.cells = std::move(cells.cells);
+  const auto per_cell = [&](const std::string& name, const ChannelMatrix& per_patch) {
+    ChannelMatrix m(static_cast<Eigen::Index>(cells.patch.size()), 3);
+    for (size_t c = 0; c < cells.patch.size(); ++c) m.row(Eigen::Index(c)) = per_patch.row(cells.patch[c]);
+    return rgb_array(name, m);
+  };
   g.point_arrays.push_back(rgb_array("radiosity", r.point_radiosity));
   g.point_arrays.push_back(rgb_array("irradiance", r.point_irradiance));
-  g.cell_arrays.push_back(rgb_array("radiosity", r.radiosity));
-  g.cell_arrays.push_back(rgb_array("irradiance", r.irradiance));
-  g.cell_arrays.push_back(rgb_array("emission", r.emission));
-  g.cell_arrays.push_back(rgb_array("reflectance", r.reflectance));
-  VtuArray area{"area", 1, {}, false}, face{"face", 1, {}, true}, group{"group", 1, {}, true};
-  for (const Patch& p : r.mesh.patches) {
-    area.values.push_back(p.area);
+  g.cell_arrays.push_back(per_cell("radiosity", r.radiosity));
+  g.cell_arrays.push_back(per_cell("irradiance", r.irradiance));
+  g.cell_arrays.push_back(per_cell("emission", r.emission));
+  g.cell_arrays.push_back(per_cell("reflectance", r.reflectance));
+  VtuArray area{"area", 1, std::move(cells.area), false}, face{"face", 1, {}, true}, group{"group", 1, {}, true};
+  for (const int i : cells.patch) {
+    const Patch& p = r.mesh.patches[size_t(i)];
     face.values.push_back(scene.faces[p.face].source_face);
     group.values.push_back(scene.faces[p.face].group);
   }
