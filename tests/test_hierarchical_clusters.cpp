@@ -127,13 +127,15 @@ TEST(ClusterTree, ConvexWhereNoFaceLiesInFrontOfAnother) {
 
 // For points of the receiving cluster, Lambert's exact factor from each face of the source
 // cluster (all mutually visible) against the transfer at the point: within the estimate (scaled
-// by the point's cosine toward the source), and the estimate a small fraction of the factor when
-// far apart. Sources flat (their faces in one plane) and curved (normals spread by up to 35°).
+// by the point's cosine toward the source), closer than the source taken as a point, and the
+// estimate a small fraction of the factor when far apart. Sources flat (their faces in one plane) and curved (normals
+// spread by up to 35°).
 TEST(ClusterTransfer, EstimateHoldsAgainstLambertsExactFactor) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   int checked = 0, valid = 0;
-  double worst = 0.0;  // largest |exact − transfer| / estimate
+  double worst = 0.0;        // largest |exact − transfer| / estimate
+  double worst_point = 0.0;  // the same for B as a point (the expansion's zeroth order alone)
   for (int trial = 0; trial < 400; ++trial) {
     pm::Scene s;
     // Two clusters of 4 small quads each around (0,0,0) and (D,0,0), turned to each other.
@@ -176,16 +178,24 @@ TEST(ClusterTransfer, EstimateHoldsAgainstLambertsExactFactor) {
           const pm::ClusterFace& q = faces[size_t(t.order[size_t(j)])];
           exact += pm::lambert_form_factor(pm::Receiver{x, f.normal}, q.corners, q.corner_count);
         }
-        const double approx = pm::cluster_factor_at(x, f.normal, sc.centre, sc.vector_area);
+        const double approx = pm::cluster_factor_at(x, f.normal, sc);
         const double cosine = f.normal.dot((sc.centre - x).normalized());
         EXPECT_LE(std::abs(exact - approx), tr.error * cosine) << "trial " << trial << " exact " << exact;
         worst = std::max(worst, std::abs(exact - approx) / (tr.error * cosine));
+        const pm::Vec3 w = sc.centre - x;
+        const double point = std::max(0.0, f.normal.dot(w)) * std::max(0.0, -sc.vector_area.dot(w)) /
+                             (M_PI * w.squaredNorm() * w.squaredNorm());
+        worst_point = std::max(worst_point, std::abs(exact - point) / (tr.error * cosine));
         ++checked;
       }
     }
     if (tr.distance > 30.0) { EXPECT_LT(tr.error, 0.02 * tr.factor) << "d " << tr.distance; }
   }
-  std::printf("%d valid links, %d points: worst |exact - transfer| / estimate %.3g\n", valid, checked, worst);
+  std::printf("%d valid links, %d points: worst |exact - transfer| / estimate %.3g (B as a point: %.3g)\n", valid,
+              checked, worst, worst_point);
+  // The second-order expansion is well inside the estimate, and closer than B as a point.
+  EXPECT_LT(worst, 0.1);
+  EXPECT_LT(worst, 0.25 * worst_point);
   EXPECT_GT(valid, 200);
   EXPECT_GT(checked, 3000);
 }

@@ -74,6 +74,7 @@ class TreeBuilder {
         c.normal_spread =
             std::max(c.normal_spread, std::acos(std::clamp(f.normal.dot(c.vector_area) / length, -1.0, 1.0)));
     }
+    add_moments(c);
     convex = left_convex && right_convex && behind(first + half, count - half, left_planes) &&
              behind(first, half, right_planes);
     planes.clear();
@@ -109,6 +110,23 @@ class TreeBuilder {
           if (p.normal.dot(f.corners[i]) - p.offset > tol_) return false;
     }
     return true;
+  }
+
+  // The cluster's second moment of area M and normal-offset sum T about its centre (clusters.h);
+  // a face's second moment from its triangles, ∫_t δ δᵀ dA = (A_t / 12)(Σ_i v_i v_iᵀ + s sᵀ) with
+  // v_i its corners' offsets and s their sum (the exact integral of a quadratic over a triangle).
+  void add_moments(Cluster& c) const {
+    for (int k = c.first; k < c.first + c.count; ++k) {
+      const ClusterFace& f = faces_[size_t(tree_.order[size_t(k)])];
+      c.normal_offset += f.area * f.normal * (f.centroid - c.centre).transpose();
+      for (int t = 1; t + 1 < f.corner_count; ++t) {
+        const Vec3 v[3] = {f.corners[0] - c.centre, f.corners[t] - c.centre, f.corners[t + 1] - c.centre};
+        const double area = 0.5 * (v[1] - v[0]).cross(v[2] - v[0]).norm();
+        const Vec3 sum = v[0] + v[1] + v[2];
+        c.area_moment += (area / 12.0) * (v[0] * v[0].transpose() + v[1] * v[1].transpose() + v[2] * v[2].transpose() +
+                                          sum * sum.transpose());
+      }
+    }
   }
 
   Eigen::Matrix<double, 6, 1> key_of(int f) const {
@@ -181,13 +199,22 @@ ClusterTransfer cluster_transfer(const ClusterTree& tree, const std::vector<Clus
   return t;
 }
 
-double cluster_factor_at(const Vec3& x, const Vec3& normal, const Vec3& centre, const Vec3& vector_area) {
-  const Vec3 w = centre - x;
+double cluster_factor_at(const Vec3& x, const Vec3& n, const Cluster& source) {
+  const Vec3 w = source.centre - x;
   const double d2 = w.squaredNorm();
-  if (!(d2 > 0.0)) return 0.0;
-  const Vec3 u = w / std::sqrt(d2);
-  // Cohen & Wallace 1993, ch. 4: the differential-area kernel, with B's faces at its centroid (clusters.h).
-  return std::max(0.0, normal.dot(u)) * std::max(0.0, -vector_area.dot(u)) / (M_PI * d2);
+  const double a = n.dot(w), b_total = -source.vector_area.dot(w);
+  if (!(d2 > 0.0) || a <= 0.0 || b_total <= 0.0) return 0.0;
+  const double d4 = d2 * d2, d6 = d4 * d2, d8 = d4 * d4;
+  // The expansion of clusters.h, term by term (Cohen & Wallace 1993, ch. 4, the kernel).
+  const double f0 = a * b_total / (M_PI * d4);
+  const Eigen::Matrix3d& T = source.normal_offset;
+  const double f1 = (-w.dot(T * n) - a * T.trace()) / (M_PI * d4) + 4.0 * a * w.dot(T * w) / (M_PI * d6);
+  const Eigen::Matrix3d& M = source.area_moment;
+  const Vec3 m = source.vector_area / source.area;
+  const double b = -m.dot(w);
+  const double trace_hm = -2.0 * n.dot(M * m) / d4 - 8.0 * w.dot(M * (n * b - m * a)) / d6 -
+                          4.0 * a * b * M.trace() / d6 + 24.0 * a * b * w.dot(M * w) / d8;
+  return std::max(0.0, f0 + f1 + 0.5 * trace_hm / M_PI);
 }
 
 }  // namespace photometria

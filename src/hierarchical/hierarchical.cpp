@@ -248,7 +248,7 @@ struct HierarchicalRadiosity::Impl {
       return lambert_form_factor(Receiver{x, n}, q.corners, q.corner_count);
     }
     const Cluster& c = cluster(l.source);
-    return cluster_factor_at(x, n, c.centre, c.vector_area);
+    return cluster_factor_at(x, n, c);
   }
 
   // The factor of link l at receiver element e (normal n): an element link's own, or a
