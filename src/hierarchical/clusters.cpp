@@ -154,6 +154,12 @@ ClusterTree build_cluster_tree(const std::vector<ClusterFace>& faces, double tol
     bool convex = false;
     TreeBuilder(faces, tolerance, tree).build(0, n, planes, convex);
   }
+  tree.face_radius.assign(size_t(n), 0.0);
+  for (int i = 0; i < n; ++i) {
+    const ClusterFace& f = faces[size_t(i)];
+    for (int k = 0; k < f.corner_count; ++k)
+      tree.face_radius[size_t(i)] = std::max(tree.face_radius[size_t(i)], (f.corners[k] - f.centroid).norm());
+  }
   tree.position.resize(size_t(n));
   for (int k = 0; k < n; ++k) tree.position[size_t(tree.order[size_t(k)])] = k;
   return tree;
@@ -163,12 +169,8 @@ Vec3 node_centre(const ClusterTree& tree, const std::vector<ClusterFace>& faces,
   return node >= 0 ? faces[size_t(node)].centroid : tree.clusters[size_t(cluster_of_node(node))].centre;
 }
 
-double node_radius(const ClusterTree& tree, const std::vector<ClusterFace>& faces, int node) {
-  if (node < 0) return tree.clusters[size_t(cluster_of_node(node))].radius;
-  const ClusterFace& f = faces[size_t(node)];
-  double r = 0.0;
-  for (int i = 0; i < f.corner_count; ++i) r = std::max(r, (f.corners[i] - f.centroid).norm());
-  return r;
+double node_radius(const ClusterTree& tree, const std::vector<ClusterFace>&, int node) {
+  return node < 0 ? tree.clusters[size_t(cluster_of_node(node))].radius : tree.face_radius[size_t(node)];
 }
 
 ClusterTransfer cluster_transfer(const ClusterTree& tree, const std::vector<ClusterFace>& faces, int receiver,

@@ -81,10 +81,11 @@ struct Cluster {
 };
 
 struct ClusterTree {
-  std::vector<Cluster> clusters;  // children before parents: the top is the last
-  std::vector<int> order;         // the faces, each cluster's a contiguous range
-  std::vector<int> position;      // per face: its index in `order`
-  std::vector<int> parent;        // per face: the cluster holding it, -1 when there is one face
+  std::vector<Cluster> clusters;    // children before parents: the top is the last
+  std::vector<int> order;           // the faces, each cluster's a contiguous range
+  std::vector<int> position;        // per face: its index in `order`
+  std::vector<int> parent;          // per face: the cluster holding it, -1 when there is one face
+  std::vector<double> face_radius;  // per face: its farthest corner from its centroid, metres
   // The node holding everything: the top cluster, or face 0 alone; -1 without faces.
   int top() const { return clusters.empty() ? (order.empty() ? -1 : 0) : cluster_node(int(clusters.size()) - 1); }
 };

@@ -203,12 +203,24 @@ struct HierarchicalRadiosity::Impl {
       std::copy(e.corners, e.corners + e.corner_count, out);
       return e.corner_count;
     }
-    const Eigen::AlignedBox3d& b = cluster(node).box;
-    const Vec3 lo = b.min(), hi = b.max();
-    const int loop[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 1, 1}, {1, 1, 1}, {1, 0, 1}, {0, 0, 1}};
-    for (int k = 0; k < 8; ++k)
-      out[k] = Vec3(loop[k][0] ? hi.x() : lo.x(), loop[k][1] ? hi.y() : lo.y(), loop[k][2] ? hi.z() : lo.z());
+    box_corners(cluster(node).box, out);  // recognised by the shaft as a box (visibility.h)
     return 8;
+  }
+  // The points of a node's side of a cluster link's shaft: its box's corners (box_corners), also
+  // for a root in a plane of the axes, whose box is a rectangle of that plane around it, so that
+  // the shaft is one of two boxes (visibility.h: Haines & Wallace's planes, a dozen at most);
+  // other roots give their corners.
+  int shaft_points(int node, Vec3* out) const {
+    if (node >= 0) {
+      const Vec3& n = normal(node);
+      if (n.cwiseAbs().maxCoeff() < 1.0 - 1e-12) return node_points(node, out);
+      const Element& e = elements_[size_t(node)];
+      Eigen::AlignedBox3d box;
+      for (int k = 0; k < e.corner_count; ++k) box.extend(e.corners[k]);
+      box_corners(box, out);
+      return 8;
+    }
+    return node_points(node, out);
   }
   bool node_holds(int node, int root) const {
     if (node >= 0) return node == root;
@@ -320,7 +332,7 @@ struct HierarchicalRadiosity::Impl {
     if ((a < 0 && !cluster(a).convex) || (b < 0 && !cluster(b).convex)) return false;
     if (!vis_) return true;
     Vec3 pa[8], pb[8];
-    const int na = node_points(a, pa), nb = node_points(b, pb);
+    const int na = shaft_points(a, pa), nb = shaft_points(b, pb);
     vis_->culler().occluders(pa, na, pb, nb, occluders);
     for (const int o : occluders)
       for (const int f : vis_->culler().occluder_faces(o)) {

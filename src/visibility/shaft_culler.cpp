@@ -109,9 +109,56 @@ class Shaft {
     return true;
   }
 
+  // Two axis-aligned boxes (box_corners' order): the planes of Haines & Wallace's box-to-box
+  // shaft ("Shaft Culling for Efficient Ray-Cast Radiosity", Eurographics Workshop on Rendering
+  // 1991). On each axis one box or the other reaches the union box's lower face, and its upper
+  // one; for two faces of the union box on different axes i and j reached by different boxes, the
+  // plane parallel to the third axis through the edge of each box at those faces bounds both
+  // (their extents on i and j lie on its inner side). With the union box these planes bound the
+  // hull of the two boxes.
+  bool build_box_planes() {
+    Eigen::AlignedBox3d a, b;
+    if (!is_box(a_, na_, a) || !is_box(b_, nb_, b)) return false;
+    for (int i = 0; i < 3; ++i)
+      for (int j = i + 1; j < 3; ++j)
+        for (int side_i = 0; side_i < 2; ++side_i)
+          for (int side_j = 0; side_j < 2; ++side_j) {
+            // The boxes' reach on each side: the upper face when side is 1, the lower when 0.
+            const double ai = side_i ? a.max()[i] : a.min()[i], bi = side_i ? b.max()[i] : b.min()[i];
+            const double aj = side_j ? a.max()[j] : a.min()[j], bj = side_j ? b.max()[j] : b.min()[j];
+            const double si = side_i ? 1.0 : -1.0, sj = side_j ? 1.0 : -1.0;
+            const bool a_reaches_i = si * (ai - bi) > tol_, b_reaches_i = si * (bi - ai) > tol_;
+            const bool a_reaches_j = sj * (aj - bj) > tol_, b_reaches_j = sj * (bj - aj) > tol_;
+            if (!((a_reaches_i && b_reaches_j) || (b_reaches_i && a_reaches_j))) continue;
+            // The line through (ai, aj) and (bi, bj) in the (i, j) plane, its normal turned toward
+            // the union box's edge on these sides.
+            Vec3 m = Vec3::Zero();
+            m[i] = bj - aj;
+            m[j] = ai - bi;
+            if (m[i] * si + m[j] * sj < 0.0) m = -m;
+            const double len = m.norm();
+            if (!(len > 0.0)) continue;
+            m /= len;
+            Vec3 on = Vec3::Zero();
+            on[i] = ai;
+            on[j] = aj;
+            planes_[plane_count_++] = {m, m.dot(on)};
+          }
+    return true;
+  }
+
+  // Whether the n points are the 8 corners of their bounding box in box_corners' order (into box).
+  static bool is_box(const Vec3* p, int n, Eigen::AlignedBox3d& box) {
+    if (n != 8) return false;
+    for (int k = 0; k < 8; ++k) box.extend(p[k]);
+    Vec3 corners[8];
+    box_corners(box, corners);
+    return std::equal(corners, corners + 8, p);
+  }
+
   void build_planes() {
     have_planes_ = true;
-    if (build_pyramid_planes()) return;
+    if (build_pyramid_planes() || build_box_planes()) return;
     plane_count_ = 0;
     Vec3 pts[kMaxShaftPoints];
     int np = 0;
@@ -161,6 +208,13 @@ class Shaft {
 };
 
 }  // namespace
+
+void box_corners(const Eigen::AlignedBox3d& box, Vec3 corners[8]) {
+  const Vec3 lo = box.min(), hi = box.max();
+  const int loop[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 1, 1}, {1, 1, 1}, {1, 0, 1}, {0, 0, 1}};
+  for (int k = 0; k < 8; ++k)
+    corners[k] = Vec3(loop[k][0] ? hi.x() : lo.x(), loop[k][1] ? hi.y() : lo.y(), loop[k][2] ? hi.z() : lo.z());
+}
 
 ShaftCuller::ShaftCuller(const Scene& scene) {
   tol_ = 1e-9 * std::max(bounding_diagonal(scene.vertices), 1e-30);

@@ -65,6 +65,10 @@ bool scene_needs_no_visibility(const Scene& scene, std::string* reason = nullptr
 // unchanged. So the occluders cover exactly the points the faces cover: they block the same
 // segments (a segment whose open interior crosses one). Occluders are numbered in the order of
 // their first scene faces: with nothing to merge, occluder f is scene face f.
+// The 8 corners of an axis-aligned box, in the order ShaftCuller::occluders recognises as a box:
+// each corner after the first joined to the one before by an edge of the box.
+void box_corners(const Eigen::AlignedBox3d& box, Vec3 corners[8]);
+
 class ShaftCuller {
  public:
   explicit ShaftCuller(const Scene& scene);
@@ -81,14 +85,15 @@ class ShaftCuller {
   double tolerance() const { return tol_; }  // metres, 1e-9 × scene diagonal
 
   // Replaces `out` with the occluders that may meet the open shaft of A and B: convex planar
-  // polygons (3 or 4 corners) or, with a count of 1, a single point. An occluder is left out when its
-  // bounding box misses the shaft's, when every corner of A and B lies on one closed side of its
-  // plane (this leaves out the occluders A and B lie in and those they only touch), or when it lies
-  // wholly on the outer closed side of one of the hull's planes. Conservative: an occluder kept may
-  // still miss the shaft (edge–edge separating axes are not tried); one left out cannot block.
-  // A and B together have at most 24 points (std::invalid_argument otherwise). With
-  // `drop_hidden` (A a single point x, na = 1), drop_hidden_occluders(x, out, on_face) is applied
-  // as well, cheaply, during the search.
+  // polygons (3 or 4 corners), a single point (a count of 1), or an axis-aligned box given as
+  // its 8 corners in box_corners' order (then, when both are boxes, the hull's planes are Haines
+  // & Wallace's box-to-box planes, at most 12, instead of every edge-and-corner candidate). An occluder is left out
+  // when its bounding box misses the shaft's, when every corner of A and B lies on one closed side of its plane (this
+  // leaves out the occluders A and B lie in and those they only touch), or when it lies wholly on the outer closed side
+  // of one of the hull's planes. Conservative: an occluder kept may still miss the shaft (edge–edge separating axes are
+  // not tried); one left out cannot block. A and B together have at most 24 points (std::invalid_argument otherwise).
+  // With `drop_hidden` (A a single point x, na = 1), drop_hidden_occluders(x, out, on_face) is applied as well,
+  // cheaply, during the search.
   void occluders(const Vec3* a, int na, const Vec3* b, int nb, std::vector<int>& out, bool drop_hidden = false,
                  int on_face = -1) const;
 
