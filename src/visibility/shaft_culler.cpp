@@ -111,11 +111,11 @@ class Shaft {
 
   // Two axis-aligned boxes (box_corners' order): the planes of Haines & Wallace's box-to-box
   // shaft ("Shaft Culling for Efficient Ray-Cast Radiosity", Eurographics Workshop on Rendering
-  // 1991). On each axis one box or the other reaches the union box's lower face, and its upper
-  // one; for two faces of the union box on different axes i and j reached by different boxes, the
-  // plane parallel to the third axis through the edge of each box at those faces bounds both
-  // (their extents on i and j lie on its inner side). With the union box these planes bound the
-  // hull of the two boxes.
+  // 1991; Photorealistic Rendering in Computer Graphics, Springer 1994). On each axis one box or
+  // the other reaches the union box's lower face, and its upper one; for two faces of the union
+  // box on different axes i and j reached by different boxes, the plane parallel to the third
+  // axis through the edge of each box at those faces bounds both (their extents on i and j lie on
+  // its inner side). With the union box these planes bound the hull of the two boxes.
   bool build_box_planes() {
     Eigen::AlignedBox3d a, b;
     if (!is_box(a_, na_, a) || !is_box(b_, nb_, b)) return false;
