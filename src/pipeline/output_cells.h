@@ -9,8 +9,8 @@
 // larger patch into triangles through those corners makes every cell edge an edge of the
 // cells on both sides, and the drawn field continuous (Baum, Mann, Smith & Winget, "Making
 // Radiosity Usable: Automatic Preprocessing and Meshing Techniques for the Generation of
-// Accurate Radiosity Solutions", SIGGRAPH 1991, name T-vertices as the source of these
-// discontinuities).
+// Accurate Radiosity Solutions", SIGGRAPH 1991, discuss such T-vertices and the shading
+// discontinuities they cause).
 //
 // A point is taken as a corner inside patch p's edge (a, b) when it lies at the edge's midpoint,
 // or recursively at a midpoint of a half, exactly (splitting at midpoints puts it there, and

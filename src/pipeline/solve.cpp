@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <iomanip>
+#include <map>
 #include <memory>
 #include <numeric>
 #include <sstream>
@@ -379,17 +380,26 @@ void gather_at_points(const Scene& scene, const Visibility* vis, const DirectLig
   r.summary.vertex_pairs_culled = culled;
 }
 
-EnergyBalance energy_balance(const Eigen::VectorXd& row_sums, const ChannelMatrix& direct, const SolveResult& r) {
+// The energy balance (theory.md "Energy balance"). Escape, A_i B_i (1 − Σ_j F_ij), is counted
+// per patch and only where positive; with `per_face`, summed over each scene face's patches
+// first: the hierarchy's leaves take their ancestors' mean factors, so their rows scatter about
+// their true rows, and only the sums over the elements that carry links cancel that scatter.
+EnergyBalance energy_balance(const Eigen::VectorXd& row_sums, const ChannelMatrix& direct, const SolveResult& r,
+                             bool per_face = false) {
   EnergyBalance e;
+  std::map<int, Rgb> face_escape;  // per_face: Σ A B (1 − row) over the face's patches
   for (int i = 0; i < r.mesh.size(); ++i) {
     const double a = r.mesh.patches[i].area;
     for (int c = 0; c < 3; ++c) {
       e.emitted[c] += a * r.emission(i, c);
       e.direct_in[c] += a * direct(i, c);
       e.absorbed[c] += a * (1.0 - r.reflectance(i, c)) * r.irradiance(i, c);
-      e.escaped[c] += a * r.radiosity(i, c) * std::max(0.0, 1.0 - row_sums[i]);
     }
+    const Rgb escape = a * (1.0 - row_sums[i]) * r.radiosity.row(i).transpose().array();
+    if (per_face) face_escape.try_emplace(r.mesh.patches[size_t(i)].face, Rgb::Zero()).first->second += escape;
+    else e.escaped += escape.max(0.0);
   }
+  for (const auto& [face, escape] : face_escape) e.escaped += escape.max(0.0);
   for (int c = 0; c < 3; ++c)
     if (e.emitted[c] + e.direct_in[c] > 0)
       e.relative_imbalance =
@@ -560,7 +570,7 @@ std::unique_ptr<HierarchicalRadiosity> solve_by_hierarchy(const Scene& scene, co
   s.memory_limit_source = opt.max_memory_bytes > 0.0 ? "--max-memory" : "MemAvailable";
   s.matrix_storage = "links";
   s.matrix_bytes = sol.stats.bytes;
-  s.energy = energy_balance(sol.row_sums, sol.direct, r);
+  s.energy = energy_balance(sol.row_sums, sol.direct, r, true);
   return hierarchy;
 }
 
