@@ -114,7 +114,9 @@ class TreeBuilder {
 
   // The cluster's second moment of area M and normal-offset sum T about its centre (clusters.h);
   // a face's second moment from its triangles, ∫_t δ δᵀ dA = (A_t / 12)(Σ_i v_i v_iᵀ + s sᵀ) with
-  // v_i its corners' offsets and s their sum (the exact integral of a quadratic over a triangle).
+  // v_i its corners' offsets and s their sum: the edge-midpoint rule, exact for quadratics on a
+  // triangle (Strang & Fix, "An Analysis of the Finite Element Method", 1973, ch. 4),
+  // (A_t / 3) Σ m mᵀ over the midpoints m = (v_i + v_j) / 2, expanded.
   void add_moments(Cluster& c) const {
     for (int k = c.first; k < c.first + c.count; ++k) {
       const ClusterFace& f = faces_[size_t(tree_.order[size_t(k)])];
